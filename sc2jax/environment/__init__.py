@@ -13,6 +13,7 @@ from sc2jax.environment.arguments import (
     resolve_types,
 )
 from sc2jax.environment.dense import DenseAction, check_dense_action, from_dense, to_dense
+from sc2jax.environment.environments import BatchedSC2Env, SC2Env, make, to_pysc2_layout
 from sc2jax.environment.features import (
     MINIMAP_FEATURES,
     SCREEN_FEATURES,
@@ -31,6 +32,7 @@ from sc2jax.environment.functions import (
     FunctionType,
     validate_function_call,
 )
+from sc2jax.environment.minigames import MAPS
 from sc2jax.environment.observation_tables import (
     ControlGroup,
     FeatureUnit,
@@ -44,6 +46,7 @@ from sc2jax.environment.observation_tables import (
     UnitLayer,
 )
 from sc2jax.environment.protocol_enums import ActionResult, Alert
+from sc2jax.environment.simulator import EnvParams, Simulator
 from sc2jax.environment.specs import (
     ObservationFormat,
     VariableLengthArray,

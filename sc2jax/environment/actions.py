@@ -1,0 +1,135 @@
+"""Applies one dense action to the state: UI functions and commands to the selection.
+
+Each function id maps to an internal action kind (`KIND_TABLE`); `apply_action` runs the
+kind's branch with `lax.switch`. Function availability is checked first against the
+selection the agent saw; an unavailable function does nothing and reports
+`ActionResult.NotSupported`, as the game does for an ability missing from the command
+card. (The dm_env shell can instead raise before stepping, as PySC2's
+`ensure_available_actions` does.)
+"""
+
+from __future__ import annotations
+
+import enum
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+
+from sc2jax.environment import commands, ui
+from sc2jax.environment.availability import CARD_TABLE, available_actions
+from sc2jax.environment.dense import DenseAction
+from sc2jax.environment.functions import FUNCTIONS, NUM_FUNCTIONS, FunctionType
+from sc2jax.environment.geometry import clamp_camera
+from sc2jax.environment.protocol_enums import ActionResult
+from sc2jax.environment.render import Renderer, pick_unit
+from sc2jax.environment.state import NO_TARGET, EnvState, Order, Owner
+from sc2jax.environment.units import UNIT_DATA
+
+
+class Kind(enum.IntEnum):
+    """What the simulator does for a function."""
+
+    UNSUPPORTED = 0
+    NOOP = 1
+    MOVE_CAMERA = 2
+    SELECT_POINT = 3
+    SELECT_RECT = 4
+    CONTROL_GROUP = 5
+    SELECT_UNIT = 6
+    SELECT_ARMY = 7
+    ATTACK = 8
+    MOVE = 9
+    PATROL = 10
+    SMART = 11
+    HOLD = 12
+    STOP = 13
+
+
+_BY_NAME = {
+    "no_op": Kind.NOOP, "move_camera": Kind.MOVE_CAMERA, "select_point": Kind.SELECT_POINT,
+    "select_rect": Kind.SELECT_RECT, "select_control_group": Kind.CONTROL_GROUP,
+    "select_unit": Kind.SELECT_UNIT, "select_army": Kind.SELECT_ARMY,
+    "Attack_screen": Kind.ATTACK, "Attack_minimap": Kind.ATTACK,
+    "Move_screen": Kind.MOVE, "Move_minimap": Kind.MOVE,
+    "Patrol_screen": Kind.PATROL, "Patrol_minimap": Kind.PATROL,
+    "Smart_screen": Kind.SMART, "Smart_minimap": Kind.SMART,
+    "HoldPosition_quick": Kind.HOLD, "Stop_quick": Kind.STOP,
+}
+
+KIND_TABLE = np.zeros(NUM_FUNCTIONS, np.int32)
+for _name, _kind in _BY_NAME.items():
+    KIND_TABLE[FUNCTIONS[_name].id] = _kind
+IS_MINIMAP = np.array([f.function_type == FunctionType.cmd_minimap for f in FUNCTIONS])
+
+
+class _Context:
+    """Values the branches share, computed once per action."""
+
+    def __init__(self, state: EnvState, action: DenseAction, renderer: Renderer):
+        units = state.units
+        camera = renderer.camera
+        self.shown = renderer.units_shown(state)
+        self.pixel_pos = camera.world_to_pixel(state.camera, units.pos)
+        self.pixel_radius = jnp.asarray(UNIT_DATA.radius)[units.type] * camera.pixels_per_unit
+        sx, sy = camera.size
+        px, py = self.pixel_pos[:, 0], self.pixel_pos[:, 1]
+        self.on_screen = self.shown & (px >= 0) & (px < sx) & (py >= 0) & (py < sy)
+        self.picked = pick_unit(units, self.on_screen, self.pixel_pos, self.pixel_radius,
+                                action.screen)
+        screen_point = camera.pixel_to_world(state.camera, action.screen)
+        minimap_point = renderer.minimap.pixel_to_world(action.minimap)
+        self.point = jnp.where(jnp.asarray(IS_MINIMAP)[action.function], minimap_point,
+                               screen_point)
+        # Units can be targeted on the screen only.
+        self.enemy_under = jnp.where(
+            jnp.asarray(IS_MINIMAP)[action.function], False,
+            (self.picked >= 0) & (units.owner[jnp.maximum(self.picked, 0)] == Owner.ENEMY))
+        self.minimap_point = minimap_point
+
+
+def apply_action(state: EnvState, action: DenseAction, renderer: Renderer,
+                 card_table=CARD_TABLE) -> EnvState:
+    """Applies one (unbatched) dense action and records `last_action`/`action_result`."""
+    function = jnp.clip(action.function, 0, NUM_FUNCTIONS - 1)
+    available = available_actions(state.units, card_table=card_table)[function]
+    ctx = _Context(state, action, renderer)
+    units = state.units
+    a = action
+
+    def attack_or(order):
+        target = jnp.where(ctx.enemy_under, ctx.picked, NO_TARGET)
+        kind = jnp.where(ctx.enemy_under, Order.ATTACK_UNIT, order)
+        return commands.issue(units, kind, a.queued, ctx.point, target)
+
+    def keep_camera(result):
+        new_units, ok = result
+        return new_units, state.camera, ok
+
+    branches = [
+        lambda: (units, state.camera, jnp.bool_(False)),  # UNSUPPORTED
+        lambda: (units, state.camera, jnp.bool_(True)),  # NOOP
+        lambda: (units, clamp_camera(renderer.geometry, ctx.minimap_point), jnp.bool_(True)),
+        lambda: keep_camera(ui.select_point(units, ctx.on_screen, ctx.picked,
+                                            a.select_point_act)),
+        lambda: keep_camera(ui.select_rect(units, ctx.pixel_pos, ctx.pixel_radius,
+                                           ctx.on_screen, a.select_add, a.screen, a.screen2)),
+        lambda: keep_camera(ui.control_group(units, a.control_group_act, a.control_group_id)),
+        lambda: keep_camera(ui.select_unit(units, a.select_unit_act, a.select_unit_id)),
+        lambda: keep_camera(ui.select_army(units, a.select_add)),
+        lambda: keep_camera(attack_or(Order.ATTACK_MOVE)),
+        lambda: keep_camera(commands.issue(units, Order.MOVE, a.queued, ctx.point)),
+        lambda: keep_camera(commands.issue(units, Order.PATROL, a.queued, ctx.point)),
+        lambda: keep_camera(attack_or(Order.MOVE)),
+        lambda: keep_camera(commands.issue(units, Order.HOLD, a.queued, ctx.point)),
+        lambda: keep_camera(commands.stop(units)),
+    ]
+    kind = jnp.where(available, jnp.asarray(KIND_TABLE)[function], Kind.UNSUPPORTED)
+    new_units, camera, ok = jax.lax.switch(kind, [lambda _, b=b: b() for b in branches], None)
+    executed = available & ok & (function != FUNCTIONS.no_op.id)
+    result = jnp.where(available, jnp.where(ok, 0, int(ActionResult.Error)),
+                       int(ActionResult.NotSupported))
+    return state.replace(
+        units=new_units, camera=camera,
+        last_action=jnp.where(executed, function, -1).astype(jnp.int32),
+        action_result=jnp.where(function == FUNCTIONS.no_op.id, 0, result).astype(jnp.int32))

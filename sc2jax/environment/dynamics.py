@@ -1,0 +1,228 @@
+"""One game loop of unit behaviour: targets, movement, collisions, attacks and deaths.
+
+All per-unit logic is vectorised over the N slots with [N, N] pair arrays; simultaneous
+damage is combined with scatter-add. Orders (`state.Order`) are executed as the game
+does for the mini-games:
+
+- idle units, attack-moving and patrolling units acquire the nearest enemy within
+  their acquisition range and chase it while it stays within sight; a unit hit while
+  idle turns on its attacker;
+- holding units fire at enemies in weapon range and never move;
+- moving units ignore enemies; attack-unit orders chase their target until it dies.
+"""
+
+from __future__ import annotations
+
+from typing import NamedTuple
+
+import jax
+import jax.numpy as jnp
+
+from sc2jax.environment.state import NO_TARGET, Order, Owner, Units
+from sc2jax.environment.units import UNIT_DATA, Attribute
+
+# A move order ends within this distance of its goal, or when the unit is blocked
+# (it moved less than STUCK_FRACTION of its speed) within BLOCKED_ARRIVAL of the goal.
+ARRIVAL = 1e-3
+BLOCKED_ARRIVAL = 1.0
+STUCK_FRACTION = 0.2
+
+
+class LoopEvents(NamedTuple):
+    """What happened during one loop.
+
+    Attributes:
+      died: bool[N] units that died this loop (they are no longer alive).
+      damage_dealt: float32 scalar, damage dealt by the player's units.
+      damage_taken: float32 scalar, damage taken by the player's units.
+    """
+
+    died: jax.Array
+    damage_dealt: jax.Array
+    damage_taken: jax.Array
+
+
+def _data(types):
+    """Per-unit stats for a type array."""
+    return jax.tree_util.tree_map(lambda column: jnp.asarray(column)[types], UNIT_DATA)
+
+
+def hostile(owner):
+    """bool[N, N]: i and j are enemies (the player against player 2)."""
+    a, b = owner[:, None], owner[None, :]
+    return ((a == Owner.SELF) & (b == Owner.ENEMY)) | ((a == Owner.ENEMY) & (b == Owner.SELF))
+
+
+def pop_order(units: Units, done) -> Units:
+    """Advances the order queue of units where `done` (bool[N]) holds."""
+    shift = lambda x, fill: jnp.where(  # noqa: E731
+        done.reshape((-1,) + (1,) * (x.ndim - 1)),
+        jnp.concatenate([x[:, 1:], jnp.full_like(x[:, :1], fill)], axis=1), x)
+    orders = shift(units.orders, Order.NONE)
+    starts_patrol = done & (orders[:, 0] == Order.PATROL)
+    return units.replace(
+        orders=orders,
+        order_pos=shift(units.order_pos, 0.0),
+        order_unit=shift(units.order_unit, NO_TARGET),
+        patrol_origin=jnp.where(starts_patrol[:, None], units.pos, units.patrol_origin),
+        target=jnp.where(done, NO_TARGET, units.target))
+
+
+def _select_targets(units: Units, data, gap, enemy):
+    """Returns int32[N] the unit each slot engages this loop, or -1."""
+    n = units.num_slots
+    order = units.orders[:, 0]
+    has_weapon = data.damage > 0
+    scan = jnp.where(order == Order.HOLD, data.range, jnp.maximum(data.acquire, data.range))
+    scans = has_weapon & ((order == Order.NONE) | (order == Order.ATTACK_MOVE)
+                          | (order == Order.PATROL) | (order == Order.HOLD))
+    # Keep the current target while it stays an enemy within sight (weapon range if holding).
+    keep_range = jnp.where(order == Order.HOLD, data.range, data.sight)
+    current = units.target
+    safe = jnp.clip(current, 0, n - 1)
+    rows = jnp.arange(n)
+    keep = scans & (current >= 0) & enemy[rows, safe] & (gap[rows, safe] <= keep_range)
+    candidate = enemy & (gap <= scan[:, None])
+    nearest = jnp.argmin(jnp.where(candidate, gap, jnp.inf), axis=1)
+    acquired = jnp.where(keep, current, jnp.where(candidate.any(axis=1), nearest, NO_TARGET))
+    auto = jnp.where(scans, acquired, NO_TARGET)
+    ordered = units.order_unit[:, 0]
+    return jnp.where(order == Order.ATTACK_UNIT, ordered, auto)
+
+
+def game_loop(units: Units, key, playable, geometry_pathable=None) -> tuple[Units, LoopEvents]:
+    """Advances all units by one game loop.
+
+    Args:
+      units: the unit slots.
+      key: RNG key for weapon-cooldown jitter.
+      playable: (x0, y0, x1, y1), the area units are kept inside.
+      geometry_pathable: unused; the mini-games' playable areas are flat and open.
+
+    Returns:
+      The new units and the loop's events.
+    """
+    del geometry_pathable
+    n = units.num_slots
+    data = _data(units.type)
+    alive = units.alive
+    pos = units.pos
+    rows = jnp.arange(n)
+
+    diff = pos[:, None, :] - pos[None, :, :]
+    dist = jnp.sqrt(jnp.sum(diff * diff, axis=-1) + 1e-12)
+    gap = dist - data.radius[:, None] - data.radius[None, :]
+    enemy = hostile(units.owner) & alive[:, None] & alive[None, :]
+
+    # Attack-unit orders whose target is gone are complete.
+    order = units.orders[:, 0]
+    ordered = units.order_unit[:, 0]
+    target_gone = (order == Order.ATTACK_UNIT) & ~alive[jnp.clip(ordered, 0, n - 1)]
+    units = pop_order(units, target_gone & alive)
+    order = units.orders[:, 0]
+
+    target = _select_targets(units, data, gap, enemy)
+    has_target = (target >= 0) & alive
+    safe_target = jnp.clip(target, 0, n - 1)
+    target_gap = gap[rows, safe_target]
+    in_range = has_target & (target_gap <= data.range) & (data.damage > 0)
+
+    # Where each unit heads.
+    order_goal = units.order_pos[:, 0]
+    chasing = has_target & ~in_range & (order != Order.HOLD)
+    goal = jnp.where(chasing[:, None], pos[safe_target], order_goal)
+    walking = (order == Order.MOVE) | (order == Order.ATTACK_MOVE) | (order == Order.PATROL)
+    moving = alive & (chasing | (walking & ~has_target)) & (data.speed > 0)
+    to_goal = goal - pos
+    goal_dist = jnp.sqrt(jnp.sum(to_goal * to_goal, axis=-1) + 1e-12)
+    room = jnp.where(chasing, jnp.maximum(target_gap - data.range, 0.0) + 1e-3, goal_dist)
+    step = jnp.where(moving, jnp.minimum(data.speed, room), 0.0)
+    direction = to_goal / goal_dist[:, None]
+    new_pos = pos + direction * step[:, None]
+
+    new_pos = _resolve_collisions(new_pos, alive, data)
+    x0, y0, x1, y1 = playable
+    new_pos = jnp.clip(new_pos, jnp.array([x0, y0]), jnp.array([x1, y1]))
+    new_pos = jnp.where(alive[:, None], new_pos, pos)
+
+    # Facing follows movement, or turns to the target when attacking.
+    moved = new_pos - pos
+    to_target = pos[safe_target] - pos
+    face_vec = jnp.where(in_range[:, None], to_target, moved)
+    turns = jnp.sum(face_vec * face_vec, axis=-1) > 1e-10
+    facing = jnp.where(turns, jnp.arctan2(face_vec[:, 1], face_vec[:, 0]), units.facing)
+
+    # Attacks: instant hits, combined with scatter-add.
+    cooldown = units.cooldown - 1.0
+    fires = in_range & (cooldown <= 0.0) & alive
+    tdata_attr = data.attributes[safe_target]
+    light = (tdata_attr & Attribute.LIGHT) > 0
+    per_hit = jnp.maximum(data.damage + jnp.where(light, data.bonus_light, 0.0)
+                          - data.armor[safe_target], 0.5)
+    hits = jnp.where(fires, per_hit, 0.0)
+    damage = jnp.zeros(n, jnp.float32).at[safe_target].add(hits)
+    jitter = jax.random.randint(key, (n,), -1, 3).astype(jnp.float32)
+    cooldown = jnp.where(fires, cooldown + data.cooldown + jitter, jnp.maximum(cooldown, 0.0))
+
+    # A unit hit while idle turns on (one of) its attackers.
+    attacker = jnp.full(n, -1, jnp.int32).at[safe_target].max(jnp.where(fires, rows, -1))
+    idle = units.orders[:, 0] == Order.NONE
+    retaliate = idle & (attacker >= 0) & (units.target < 0) & (data.damage > 0)
+    new_target = jnp.where(retaliate, attacker, target)
+
+    health = units.health - damage
+    died = alive & (data.max_health > 0) & (health <= 0)
+    alive = alive & ~died
+
+    own = units.owner == Owner.SELF
+    events = LoopEvents(
+        died=died,
+        damage_dealt=jnp.sum(jnp.where(own, hits, 0.0)),
+        damage_taken=jnp.sum(jnp.where(own, damage, 0.0)))
+
+    units = units.replace(
+        pos=new_pos, facing=facing, cooldown=jnp.where(alive, cooldown, 0.0),
+        health=jnp.where(alive, health, 0.0), alive=alive,
+        target=jnp.where(alive, new_target, NO_TARGET),
+        selected=units.selected & alive, groups=jnp.where(alive, units.groups, 0))
+    return _complete_orders(units, pos, step, goal_dist, has_target, moving), events
+
+
+def _complete_orders(units: Units, old_pos, step, goal_dist, has_target, moving) -> Units:
+    """Ends move orders that arrived (or are blocked next to their goal); turns patrols."""
+    order = units.orders[:, 0]
+    speed = _data(units.type).speed
+    travelled = jnp.sqrt(jnp.sum((units.pos - old_pos) ** 2, axis=-1))
+    remaining = goal_dist - step
+    blocked = moving & (travelled < STUCK_FRACTION * speed) & (goal_dist < BLOCKED_ARRIVAL)
+    arrived = units.alive & ~has_target & ((moving & (remaining <= ARRIVAL)) | blocked)
+    walking_done = arrived & ((order == Order.MOVE) | (order == Order.ATTACK_MOVE))
+    patrol_turn = arrived & (order == Order.PATROL)
+    units = units.replace(
+        order_pos=units.order_pos.at[:, 0].set(
+            jnp.where(patrol_turn[:, None], units.patrol_origin, units.order_pos[:, 0])),
+        patrol_origin=jnp.where(patrol_turn[:, None], units.order_pos[:, 0],
+                                units.patrol_origin))
+    return pop_order(units, walking_done)
+
+
+def _resolve_collisions(pos, alive, data):
+    """Pushes overlapping ground units apart; immobile ones (structures, resources) don't
+    move. Items without collision (beacons, shards: radius used for rendering only) are
+    ignored."""
+    is_structure = (data.attributes & Attribute.STRUCTURE) > 0
+    collides = alive & ((data.max_health > 0) | is_structure)
+    mobile = data.speed > 0
+    diff = pos[:, None, :] - pos[None, :, :]
+    dist = jnp.sqrt(jnp.sum(diff * diff, axis=-1) + 1e-12)
+    overlap = data.radius[:, None] + data.radius[None, :] - dist
+    pair = collides[:, None] & collides[None, :] & (overlap > 0) & ~jnp.eye(len(pos), dtype=bool)
+    # Share of the overlap i gives way: half between two mobile units, all against a wall.
+    share = jnp.where(mobile[None, :], 0.5, 1.0) * mobile[:, None]
+    # Coincident units separate along a fixed per-pair direction.
+    tie = jnp.stack([jnp.cos(jnp.arange(len(pos)) * 2.4), jnp.sin(jnp.arange(len(pos)) * 2.4)],
+                    -1)
+    unit_dir = jnp.where((dist > 1e-4)[..., None], diff / dist[..., None],
+                         tie[:, None, :] - tie[None, :, :])
+    push = jnp.sum(jnp.where(pair[..., None], unit_dir * (overlap * share)[..., None], 0.0), 1)
+    return pos + push

@@ -1,0 +1,134 @@
+"""Map geometry and PySC2's coordinate transforms.
+
+World coordinates have their origin at the bottom-left, y up. Feature layers are indexed
+(y, x) from the top-left. The screen is centred on the camera and spans
+`CAMERA_WIDTH` world units along its longer side (PySC2's `camera_width_world_units`);
+the minimap spans the whole map at `minimap_max_dim / map_max_dim` pixels per unit.
+A pixel stands for the world point at its centre.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+
+import jax.numpy as jnp
+import numpy as np
+
+CAMERA_WIDTH = 24.0
+
+
+@dataclasses.dataclass(frozen=True, eq=False)
+class MapGeometry:
+    """A map's static layout.
+
+    Attributes:
+      size: (width, height) in world units (cells).
+      playable: (x0, y0, x1, y1), the playable area.
+      camera_bounds: (x0, y0, x1, y1), where the camera centre may go.
+      height_map: uint8[height, width], the `height_map` layer value of each cell, row 0
+        at the top (y = height - 1).
+      pathable: bool[height, width], row 0 at the top.
+      buildable: bool[height, width], row 0 at the top.
+    """
+
+    size: tuple[int, int]
+    playable: tuple[float, float, float, float]
+    camera_bounds: tuple[float, float, float, float]
+    height_map: np.ndarray
+    pathable: np.ndarray
+    buildable: np.ndarray
+
+    @property
+    def max_dim(self) -> int:
+        return max(self.size)
+
+
+class Camera:
+    """Pixel <-> world transforms for a screen of `(sx, sy)` pixels.
+
+    All methods are jittable; `center` is a float32[2] world point.
+    """
+
+    def __init__(self, screen_size: tuple[int, int]):
+        self.size = screen_size
+        self.pixels_per_unit = max(screen_size) / CAMERA_WIDTH
+
+    def world_to_pixel(self, center, xy):
+        """float32[..., 2] world -> float32[..., 2] continuous screen pixel coords (x, y)."""
+        sx, sy = self.size
+        px = (xy[..., 0] - center[0]) * self.pixels_per_unit + sx / 2
+        py = (center[1] - xy[..., 1]) * self.pixels_per_unit + sy / 2
+        return jnp.stack([px, py], axis=-1)
+
+    def pixel_to_world(self, center, pixel):
+        """int[..., 2] pixel (x, y) -> float32[..., 2] world point at the pixel centre."""
+        sx, sy = self.size
+        pixel = pixel.astype(jnp.float32) + 0.5
+        wx = center[0] + (pixel[..., 0] - sx / 2) / self.pixels_per_unit
+        wy = center[1] - (pixel[..., 1] - sy / 2) / self.pixels_per_unit
+        return jnp.stack([wx, wy], axis=-1)
+
+    def pixel_centers(self, center):
+        """Returns (xs float32[sx], ys float32[sy]): world x of each column, y of each row."""
+        sx, sy = self.size
+        xs = center[0] + (jnp.arange(sx, dtype=jnp.float32) + 0.5 - sx / 2) / self.pixels_per_unit
+        ys = center[1] - (jnp.arange(sy, dtype=jnp.float32) + 0.5 - sy / 2) / self.pixels_per_unit
+        return xs, ys
+
+    def view_half_extent(self) -> tuple[float, float]:
+        """Half the screen's width and height, in world units."""
+        sx, sy = self.size
+        return sx / 2 / self.pixels_per_unit, sy / 2 / self.pixels_per_unit
+
+
+class Minimap:
+    """Pixel <-> world transforms for a minimap of `(mx, my)` pixels over the whole map."""
+
+    def __init__(self, minimap_size: tuple[int, int], geometry: MapGeometry):
+        self.size = minimap_size
+        self.map_height = geometry.size[1]
+        self.pixels_per_unit = max(minimap_size) / geometry.max_dim
+
+    def world_to_pixel(self, xy):
+        px = xy[..., 0] * self.pixels_per_unit
+        py = (self.map_height - xy[..., 1]) * self.pixels_per_unit
+        return jnp.stack([px, py], axis=-1)
+
+    def pixel_to_world(self, pixel):
+        pixel = pixel.astype(jnp.float32) + 0.5
+        wx = pixel[..., 0] / self.pixels_per_unit
+        wy = self.map_height - pixel[..., 1] / self.pixels_per_unit
+        return jnp.stack([wx, wy], axis=-1)
+
+    def pixel_centers(self):
+        mx, my = self.size
+        xs = (jnp.arange(mx, dtype=jnp.float32) + 0.5) / self.pixels_per_unit
+        ys = self.map_height - (jnp.arange(my, dtype=jnp.float32) + 0.5) / self.pixels_per_unit
+        return xs, ys
+
+
+def clamp_camera(geometry: MapGeometry, center):
+    """Clamps a camera centre to the map's camera bounds."""
+    x0, y0, x1, y1 = geometry.camera_bounds
+    return jnp.clip(center, jnp.array([x0, y0], jnp.float32), jnp.array([x1, y1], jnp.float32))
+
+
+def cell_lookup(grid: np.ndarray, map_height: int, xs, ys, fill=0):
+    """Samples a [height, width] top-row-first grid at world columns xs and rows ys.
+
+    Args:
+      grid: the map grid, row 0 at the top.
+      map_height: the map height in cells.
+      xs: float32[W] world x per output column.
+      ys: float32[H] world y per output row.
+      fill: the value outside the map.
+
+    Returns:
+      [H, W] grid values.
+    """
+    h, w = grid.shape
+    cx = jnp.floor(xs).astype(jnp.int32)
+    cy = (map_height - 1 - jnp.floor(ys)).astype(jnp.int32)
+    inside = ((cy >= 0) & (cy < h))[:, None] & ((cx >= 0) & (cx < w))[None, :]
+    values = jnp.asarray(grid)[jnp.clip(cy, 0, h - 1)[:, None], jnp.clip(cx, 0, w - 1)[None, :]]
+    return jnp.where(inside, values, jnp.asarray(fill, values.dtype))

@@ -1,0 +1,23 @@
+"""The mini-games the simulator runs, by name."""
+
+from sc2jax.environment.minigames.base import MiniGame
+from sc2jax.environment.minigames.collect_mineral_shards import CollectMineralShards
+from sc2jax.environment.minigames.find_and_defeat_zerglings import FindAndDefeatZerglings
+from sc2jax.environment.minigames.move_to_beacon import MoveToBeacon
+
+MAPS = {
+    "MoveToBeacon": MoveToBeacon,
+    "CollectMineralShards": CollectMineralShards,
+    "FindAndDefeatZerglings": FindAndDefeatZerglings,
+}
+
+
+def get_map(name: str) -> MiniGame:
+    """Returns the mini-game called `name`.
+
+    Raises:
+      ValueError: for an unknown name, listing the known ones.
+    """
+    if not isinstance(name, str) or name not in MAPS:
+        raise ValueError(f"unknown map {name!r}; the simulator has {sorted(MAPS)}")
+    return MAPS[name]()

@@ -1,0 +1,159 @@
+"""What a mini-game is to the engine, and helpers its scripts share.
+
+A mini-game is the map's trigger script: `init` places the starting units, `on_loop`
+runs after every game loop with that loop's events (rewards, wave resets, defeat), and
+`on_step` after each agent step's last loop (costly respawns). The engine handles
+everything else, including the timer.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from collections.abc import Callable
+from typing import Any
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+
+from sc2jax.environment.dynamics import LoopEvents
+from sc2jax.environment.geometry import MapGeometry
+from sc2jax.environment.state import NO_TARGET, EnvState, Order, Units
+from sc2jax.environment.units import UNIT_DATA
+
+Rect = tuple[float, float, float, float]
+
+# Facing of units created with the editor's default facing (270 degrees).
+DEFAULT_FACING = -np.pi / 2
+
+MAP_SIZE = (64, 64)
+CAMERA_BOUNDS = (10.0, 8.0, 54.0, 44.0)
+
+
+def flat_geometry(playable: Rect, height: int = 0) -> MapGeometry:
+    """A 64x64 map, flat, pathable and buildable inside the playable area."""
+    w, h = MAP_SIZE
+    x0, y0, x1, y1 = playable
+    xs = np.arange(w) + 0.5
+    ys = h - 1 - np.arange(h) + 0.5  # Row 0 is the top.
+    inside = ((ys >= y0) & (ys < y1))[:, None] & ((xs >= x0) & (xs < x1))[None, :]
+    return MapGeometry(size=MAP_SIZE, playable=playable, camera_bounds=CAMERA_BOUNDS,
+                       height_map=np.full((h, w), height, np.uint8), pathable=inside,
+                       buildable=inside.copy())
+
+
+@dataclasses.dataclass(frozen=True, eq=False)
+class MiniGame:
+    """A mini-game: its static layout, and its script.
+
+    Attributes:
+      name: the map name.
+      time_limit: the map's timer, in game seconds.
+      num_slots: unit slots (the most units the map can hold at once).
+      geometry: the map's static layout.
+      fog: whether fog of war is on (else the playable area is revealed).
+      camera: the camera centre the script pans to.
+      starting_minerals: the player's minerals at the start.
+    """
+
+    name: str
+    time_limit: int
+    num_slots: int
+    geometry: MapGeometry
+    fog: bool
+    camera: tuple[float, float]
+    starting_minerals: int = 0
+
+    def init(self, key) -> tuple[Units, Any, jax.Array]:
+        """Returns the starting units, the script's state, and the next unit tag."""
+        raise NotImplementedError
+
+    def on_loop(self, state: EnvState, events: LoopEvents) -> EnvState:
+        """Runs the script after a game loop; returns the state with score and outcome."""
+        raise NotImplementedError
+
+    def on_step(self, state: EnvState) -> EnvState:
+        """Runs after the agent step's last game loop: respawns that need many random
+        draws happen here rather than in `on_loop`. This is observationally equivalent
+        where the respawned units are placed out of reach of the player's units for the
+        rest of the step (shards at least 2 away, zerglings at least 9), since the
+        agent only observes at step boundaries."""
+        return state
+
+    @property
+    def time_limit_loops(self) -> int:
+        return self.time_limit * 16
+
+
+def uniform_in_rect(key, rect: Rect, shape=()):
+    """float32[*shape, 2] uniform points in a rectangle (x0, y0, x1, y1)."""
+    x0, y0, x1, y1 = rect
+    return jax.random.uniform(key, shape + (2,), minval=jnp.array([x0, y0]),
+                              maxval=jnp.array([x1, y1]))
+
+
+def first_valid(key, sample: Callable, valid: Callable, tries: int = 32):
+    """Rejection sampling with a fixed budget: the first of `tries` draws that is valid.
+
+    The first valid draw of i.i.d. candidates follows exactly the distribution of a
+    rejection-sampling loop; if none is valid (vanishingly rare for the budgets used),
+    the last draw is returned.
+
+    Args:
+      key: RNG key.
+      sample: key -> float32[2] point.
+      valid: float32[tries, 2] -> bool[tries].
+      tries: the budget.
+    """
+    candidates = jax.vmap(sample)(jax.random.split(key, tries))
+    ok = valid(candidates)
+    index = jnp.where(ok.any(), jnp.argmax(ok), tries - 1)
+    return candidates[index]
+
+
+def place(units: Units, slots, unit_type, owner, positions, next_tag, selected=False):
+    """Creates units in the given slots, at full health with no orders.
+
+    Args:
+      units: the units.
+      slots: int32[k] slots to fill.
+      unit_type: `UnitType` (int or int32[k]).
+      owner: `Owner` (int or int32[k]).
+      positions: float32[k, 2].
+      next_tag: int32 first tag to hand out.
+      selected: whether the new units are selected (bool or bool[k]).
+
+    Returns:
+      (units, next_tag).
+    """
+    slots = jnp.asarray(slots)
+    k = slots.shape[0]
+    types = jnp.broadcast_to(jnp.asarray(unit_type, jnp.int32), (k,))
+    data = UNIT_DATA
+
+    def put(field, values):
+        return field.at[slots].set(values)
+
+    units = units.replace(
+        alive=put(units.alive, True),
+        type=put(units.type, types),
+        owner=put(units.owner, jnp.broadcast_to(jnp.asarray(owner, jnp.int32), (k,))),
+        tag=put(units.tag, next_tag + jnp.arange(k, dtype=jnp.int32)),
+        pos=put(units.pos, positions),
+        facing=put(units.facing, DEFAULT_FACING),
+        health=put(units.health, jnp.asarray(data.max_health)[types]),
+        shields=put(units.shields, jnp.asarray(data.max_shields)[types]),
+        energy=put(units.energy, 0.0),
+        cooldown=put(units.cooldown, 0.0),
+        orders=put(units.orders, Order.NONE),
+        order_unit=put(units.order_unit, NO_TARGET),
+        target=put(units.target, NO_TARGET),
+        selected=put(units.selected, jnp.broadcast_to(jnp.asarray(selected), (k,))),
+        groups=put(units.groups, 0))
+    return units, next_tag + k
+
+
+def nearest_distance(points, others, mask):
+    """float32[...]: distance from each point to the nearest of `others` where mask."""
+    d = jnp.sqrt(jnp.sum((points[..., None, :] - others) ** 2, axis=-1))
+    return jnp.min(jnp.where(mask, d, jnp.inf), axis=-1)

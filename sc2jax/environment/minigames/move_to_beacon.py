@@ -1,0 +1,69 @@
+"""MoveToBeacon: one marine, one beacon; +1 each time the marine reaches the beacon.
+
+From the map's script (reference/pysc2_facts.md §4): the marine appears unselected at a
+random point of region 1; the beacon at a random point of region 3 (a rectangle minus a
+circle of radius 4) at least 5 from the marine. Every game loop, if the marine is within
+the 1.25-radius circle on the beacon, the score rises by 1 and the beacon moves again.
+"""
+
+from __future__ import annotations
+
+import jax
+import jax.numpy as jnp
+
+from sc2jax.environment.minigames.base import (
+    MiniGame,
+    first_valid,
+    flat_geometry,
+    place,
+    uniform_in_rect,
+)
+from sc2jax.environment.state import Owner, Units
+from sc2jax.environment.units import UnitType
+
+REGION_1 = (22.0, 20.0, 44.0, 36.0)
+REGION_3 = (23.5, 21.5, 42.5, 34.5)
+REGION_3_HOLE = ((33.0, 28.0), 4.0)
+REWARD_RADIUS = 1.25
+MIN_BEACON_DISTANCE = 5.0
+MARINE, BEACON = 0, 1
+
+
+def _beacon_position(key, marine_pos):
+    (hx, hy), hr = REGION_3_HOLE
+
+    def valid(points):
+        outside_hole = jnp.sum((points - jnp.array([hx, hy])) ** 2, -1) >= hr * hr
+        far = jnp.sum((points - marine_pos) ** 2, -1) >= MIN_BEACON_DISTANCE ** 2
+        return outside_hole & far
+
+    return first_valid(key, lambda k: uniform_in_rect(k, REGION_3), valid, tries=64)
+
+
+class MoveToBeacon(MiniGame):
+
+    def __init__(self):
+        super().__init__(name="MoveToBeacon", time_limit=120, num_slots=2,
+                         geometry=flat_geometry(REGION_1), fog=False,
+                         camera=(33.0, 25.0))
+
+    def init(self, key):
+        k_marine, k_beacon = jax.random.split(key)
+        marine_pos = uniform_in_rect(k_marine, REGION_1)
+        units = Units.empty(self.num_slots)
+        units, tag = place(units, jnp.array([MARINE]), UnitType.MARINE, Owner.SELF,
+                           marine_pos[None], 0)
+        beacon = _beacon_position(k_beacon, marine_pos)
+        units, tag = place(units, jnp.array([BEACON]), UnitType.BEACON, Owner.NEUTRAL,
+                           beacon[None], tag)
+        return units, (), tag
+
+    def on_loop(self, state, events):
+        units = state.units
+        marine = units.pos[MARINE]
+        reached = units.alive[MARINE] & (
+            jnp.sum((marine - units.pos[BEACON]) ** 2) <= REWARD_RADIUS ** 2)
+        key, sub = jax.random.split(state.key)
+        moved = _beacon_position(sub, marine)
+        pos = units.pos.at[BEACON].set(jnp.where(reached, moved, units.pos[BEACON]))
+        return state.replace(units=units.replace(pos=pos), score=state.score + reached, key=key)

@@ -1,0 +1,168 @@
+"""Builds the padded observation (specs.observation_spec(padded=True)) from the state."""
+
+from __future__ import annotations
+
+import jax.numpy as jnp
+
+from sc2jax.environment import observation_tables as tables
+from sc2jax.environment import specs
+from sc2jax.environment.availability import CARD_TABLE, army_count, available_actions
+from sc2jax.environment.render import Renderer, player_relative, ratio_255
+from sc2jax.environment.state import EnvState, Order, Owner, Units
+from sc2jax.environment.ui import NUM_GROUPS, selection_order
+from sc2jax.environment.units import UNIT_DATA, UnitType
+
+TERRAN = 1  # sc2api.proto Race.
+
+
+def unit_vectors(units: Units):
+    """int32[N, 7]: each slot's `UnitLayer` vector (as the UI panels show it)."""
+    return jnp.stack([
+        jnp.asarray(UNIT_DATA.sc2_id)[units.type],
+        player_relative(units.owner),
+        jnp.ceil(units.health).astype(jnp.int32),
+        units.shields.astype(jnp.int32),
+        units.energy.astype(jnp.int32),
+        jnp.zeros_like(units.type),
+        jnp.zeros_like(units.type),
+    ], axis=-1).astype(jnp.int32)
+
+
+def idle_worker_count(units: Units):
+    own_scv = units.alive & (units.owner == Owner.SELF) & (units.type == UnitType.SCV)
+    return jnp.sum(own_scv & (units.orders[:, 0] == Order.NONE)).astype(jnp.int32)
+
+
+def _player(state: EnvState):
+    units = state.units
+    own = units.alive & (units.owner == Owner.SELF)
+    food = jnp.asarray(UNIT_DATA.food)[units.type]
+    army = jnp.asarray(UNIT_DATA.is_army)[units.type]
+    cap = jnp.sum(jnp.where(own & (units.type == UnitType.COMMAND_CENTER), 15, 0)
+                  + jnp.where(own & (units.type == UnitType.SUPPLY_DEPOT), 8, 0))
+    return jnp.stack([
+        jnp.int32(Owner.SELF), state.minerals, state.vespene,
+        jnp.ceil(jnp.sum(jnp.where(own, food, 0.0))).astype(jnp.int32),
+        jnp.minimum(cap, 200).astype(jnp.int32),
+        jnp.ceil(jnp.sum(jnp.where(own & army, food, 0.0))).astype(jnp.int32),
+        jnp.sum(own & (units.type == UnitType.SCV)).astype(jnp.int32),
+        idle_worker_count(units), army_count(units), jnp.int32(0), jnp.int32(0),
+    ]).astype(jnp.int32)
+
+
+def _pad_rows(rows, mask, length, order=None):
+    """Packs rows where mask into the first rows of a [length, ...] zero array."""
+    position = jnp.cumsum(mask.astype(jnp.int32)) - 1 if order is None else order
+    position = jnp.where(mask & (position < length), position, length)  # length = dropped
+    out = jnp.zeros((length + 1,) + rows.shape[1:], rows.dtype)
+    return out.at[position].set(rows)[:length]
+
+
+def _control_groups(units: Units):
+    groups = jnp.arange(NUM_GROUPS)
+    member = units.alive[None, :] & ((units.groups[None, :] >> groups[:, None]) & 1 > 0)
+    count = jnp.sum(member, axis=1)
+    leader = jnp.argmax(member, axis=1)
+    leader_type = jnp.where(count > 0, jnp.asarray(UNIT_DATA.sc2_id)[units.type[leader]], 0)
+    return jnp.stack([leader_type, count], axis=-1).astype(jnp.int32)
+
+
+def feature_units(units: Units, include, pixel_pos, pixel_radius, on_screen, length,
+                  with_tags: bool):
+    """int64[length, 46] `FeatureUnit` rows of the units where `include`, in slot order.
+
+    Coordinates and radii are in the pixels of `pixel_pos`/`pixel_radius` (screen for
+    `feature_units`, minimap for `raw_units`). Raw order ids are not reported (0).
+    """
+    d = UNIT_DATA
+    t = units.type
+    n = units.num_slots
+    zeros = jnp.zeros(n, jnp.int32)
+    order_length = jnp.sum(units.orders != Order.NONE, axis=1)
+    columns = {
+        "unit_type": jnp.asarray(d.sc2_id)[t],
+        "alliance": player_relative(units.owner),
+        "health": jnp.ceil(units.health).astype(jnp.int32),
+        "shield": units.shields.astype(jnp.int32),
+        "energy": units.energy.astype(jnp.int32),
+        "build_progress": jnp.full(n, 100),
+        "health_ratio": ratio_255(units.health, jnp.asarray(d.max_health)[t]),
+        "shield_ratio": ratio_255(units.shields, jnp.asarray(d.max_shields)[t]),
+        "energy_ratio": ratio_255(units.energy, jnp.asarray(d.max_energy)[t]),
+        "display_type": jnp.ones(n, jnp.int32),
+        "owner": units.owner,
+        "x": jnp.floor(pixel_pos[:, 0]).astype(jnp.int32),
+        "y": jnp.floor(pixel_pos[:, 1]).astype(jnp.int32),
+        "facing": units.facing.astype(jnp.int32),
+        "radius": pixel_radius.astype(jnp.int32),
+        "cloak": jnp.full(n, 3),
+        "is_selected": units.selected.astype(jnp.int32),
+        "weapon_cooldown": units.cooldown.astype(jnp.int32),
+        "order_length": order_length.astype(jnp.int32),
+        "tag": units.tag if with_tags else zeros,
+        "is_on_screen": on_screen.astype(jnp.int32),
+    }
+    rows = jnp.stack([columns.get(f.name, zeros).astype(jnp.int64)
+                      for f in tables.FeatureUnit], axis=-1)
+    return _pad_rows(rows, include, length)
+
+
+def observe(state: EnvState, renderer: Renderer, card_table=CARD_TABLE) -> dict:
+    """The padded observation dict of one environment."""
+    fmt = renderer.fmt
+    units = state.units
+    vectors = unit_vectors(units)
+    selected = units.selected & units.alive
+    count = jnp.sum(selected)
+    single = jnp.where(count == 1, vectors[jnp.argmax(selected)], 0)[None]
+    multi = jnp.where(count > 1, _pad_rows(vectors, selected, fmt.max_units,
+                                           selection_order(units)), 0)
+    last_actions = jnp.full((specs.MAX_LAST_ACTIONS,), -1, jnp.int32).at[0].set(
+        state.last_action)
+    action_result = jnp.zeros((specs.MAX_LAST_ACTIONS,), jnp.int32).at[0].set(
+        state.action_result)
+    score_cumulative = state.score_cumulative.at[0].set(state.score)
+    idle = idle_worker_count(units)
+    obs = {
+        "feature_screen": renderer.screen(state),
+        "feature_minimap": renderer.minimap_layers(state),
+        "player": _player(state),
+        "game_loop": state.game_loop[None].astype(jnp.int32),
+        "score_cumulative": score_cumulative.astype(jnp.int32),
+        "score_by_category": jnp.zeros((len(tables.ScoreByCategory),
+                                        len(tables.ScoreCategories)), jnp.int32),
+        "score_by_vital": state.score_by_vital.astype(jnp.int32),
+        "single_select": single.astype(jnp.int32),
+        "multi_select": multi.astype(jnp.int32),
+        "build_queue": jnp.zeros((specs.MAX_BUILD_QUEUE, len(tables.UnitLayer)), jnp.int32),
+        "production_queue": jnp.zeros((specs.MAX_BUILD_QUEUE, len(tables.ProductionQueue)),
+                                      jnp.int32),
+        "cargo": jnp.zeros((specs.MAX_CARGO, len(tables.UnitLayer)), jnp.int32),
+        "cargo_slots_available": jnp.zeros((1,), jnp.int32),
+        "control_groups": _control_groups(units),
+        "last_actions": last_actions,
+        "action_result": action_result,
+        "alerts": jnp.zeros((specs.MAX_ALERTS,), jnp.int32),
+        "upgrades": jnp.zeros((specs.MAX_UPGRADES,), jnp.int32),
+        "home_race_requested": jnp.array([TERRAN], jnp.int32),
+        "away_race_requested": jnp.zeros((1,), jnp.int32),
+        "available_actions": available_actions(units, idle, card_table),
+    }
+    if fmt.use_feature_units or fmt.use_raw_units:
+        shown = renderer.units_shown(state)
+        camera = renderer.camera
+        screen_pos = camera.world_to_pixel(state.camera, units.pos)
+        sx, sy = camera.size
+        on_screen = ((screen_pos[:, 0] >= 0) & (screen_pos[:, 0] < sx)
+                     & (screen_pos[:, 1] >= 0) & (screen_pos[:, 1] < sy))
+        radius = jnp.asarray(UNIT_DATA.radius)[units.type]
+    if fmt.use_feature_units:
+        obs["feature_units"] = feature_units(
+            units, shown & on_screen, screen_pos, radius * camera.pixels_per_unit, on_screen,
+            fmt.max_units, with_tags=False)
+    if fmt.use_raw_units:
+        minimap = renderer.minimap
+        obs["raw_units"] = feature_units(
+            units, shown, minimap.world_to_pixel(units.pos), radius * minimap.pixels_per_unit,
+            on_screen, fmt.max_units, with_tags=True)
+    return obs

@@ -1,0 +1,228 @@
+"""The simulator: pure, jittable `reset` and `step` for one mini-game.
+
+    sim = Simulator("MoveToBeacon")
+    state, timestep = sim.reset(jax.random.PRNGKey(0))
+    state, timestep = sim.step(state, dense_action)
+
+`step` applies the action, runs `step_mul` game loops in `lax.scan` (16 loops per game
+second), and observes. A step from a state whose last timestep was LAST starts a new
+episode instead and returns FIRST, as dm_env (and PySC2) do. Batch with `jax.vmap`.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+
+import dm_env
+import jax
+import jax.numpy as jnp
+import numpy as np
+from flax import struct
+
+from sc2jax.environment import specs
+from sc2jax.environment.actions import apply_action
+from sc2jax.environment.availability import CARD_TABLE
+from sc2jax.environment.dense import DenseAction
+from sc2jax.environment.dynamics import game_loop
+from sc2jax.environment.minigames import get_map
+from sc2jax.environment.observation import observe
+from sc2jax.environment.observation_tables import ScoreCumulative
+from sc2jax.environment.render import Renderer
+from sc2jax.environment.state import NUM_SCORE_CUMULATIVE, EnvState, Outcome, Owner
+from sc2jax.environment.units import UNIT_DATA
+
+
+@struct.dataclass
+class EnvParams:
+    """Per-environment parameters (vmappable).
+
+    Attributes:
+      game_steps_per_episode: PySC2's episode limit in game loops; reaching it truncates
+        the episode (LAST with the discount kept). 0 means no limit (the mini-games'
+        default: their own timers end them).
+    """
+
+    game_steps_per_episode: jax.Array = dataclasses.field(
+        default_factory=lambda: jnp.int32(0))
+
+
+@dataclasses.dataclass(frozen=True, eq=False)
+class Simulator:
+    """One mini-game with a fixed observation format (a static, hashable config).
+
+    Attributes:
+      map_name: one of `minigames.MAPS`.
+      fmt: the observation format.
+      step_mul: game loops per agent step.
+      score_index: the reward: the change of `score_cumulative[score_index]` (0 is the
+        mini-game score), or -1 for the outcome (+1 victory, -1 defeat, 0 tie) at the end.
+      score_multiplier: multiplies every reward.
+      discount: the discount of MID steps (and of truncated LAST steps).
+      allow_cheating_layers: fill the minimap `unit_type` layer.
+    """
+
+    map_name: str = "MoveToBeacon"
+    fmt: specs.ObservationFormat = specs.ObservationFormat()
+    step_mul: int = 8
+    score_index: int = 0
+    score_multiplier: float = 1.0
+    discount: float = 1.0
+    allow_cheating_layers: bool = False
+
+    def __post_init__(self):
+        game = get_map(self.map_name)
+        if not isinstance(self.fmt, specs.ObservationFormat):
+            raise ValueError(f"fmt must be an ObservationFormat, got {type(self.fmt).__name__}")
+        if isinstance(self.step_mul, bool) or not isinstance(self.step_mul, int) or not (
+                1 <= self.step_mul <= 10_000):
+            raise ValueError(f"step_mul must be an int in [1, 10000], got {self.step_mul!r}")
+        if not isinstance(self.score_index, int) or not (
+                -1 <= self.score_index < NUM_SCORE_CUMULATIVE):
+            raise ValueError(f"score_index must be -1 (win/loss) or in [0, "
+                             f"{NUM_SCORE_CUMULATIVE - 1}], got {self.score_index!r}")
+        if not 0.0 <= self.discount <= 1.0:
+            raise ValueError(f"discount must be in [0, 1], got {self.discount!r}")
+        object.__setattr__(self, "game", game)
+        object.__setattr__(self, "renderer", Renderer(
+            self.fmt, game.geometry, game.fog, self.allow_cheating_layers))
+
+    # Specs.
+
+    def observation_spec(self) -> dict:
+        return specs.observation_spec(self.fmt, padded=True)
+
+    def action_spec(self) -> DenseAction:
+        return specs.action_spec(self.fmt.screen_size, self.fmt.minimap_size)
+
+    @property
+    def card_table(self) -> np.ndarray:
+        return getattr(self.game, "card_table", CARD_TABLE)
+
+    # The functional API.
+
+    def default_params(self) -> EnvParams:
+        return EnvParams()
+
+    def reset(self, key, params: EnvParams | None = None):
+        """Starts an episode. Returns (state, TimeStep) with step_type FIRST."""
+        del params
+        state = self._initial_state(key)
+        return state, self._timestep(state, jnp.int32(dm_env.StepType.FIRST), jnp.float32(0.0),
+                                     jnp.float32(0.0))
+
+    def step(self, state: EnvState, action: DenseAction, params: EnvParams | None = None):
+        """Advances one agent step (or starts a new episode after LAST).
+
+        Args:
+          state: the current state.
+          action: an unbatched `DenseAction`.
+          params: the episode parameters.
+
+        Returns:
+          (state, dm_env.TimeStep of arrays).
+        """
+        params = self.default_params() if params is None else params
+        over = self.episode_over(state, params)
+        reset_key, step_key = jax.random.split(state.key)
+        advanced = self._advance(state.replace(key=step_key), action)
+        fresh = self._initial_state(reset_key)
+        new = jax.tree_util.tree_map(lambda a, b: jnp.where(over, a, b), fresh, advanced)
+        ended = self.episode_over(new, params)
+        terminated = new.outcome != Outcome.RUNNING
+        step_type = jnp.where(over, dm_env.StepType.FIRST,
+                              jnp.where(ended, dm_env.StepType.LAST, dm_env.StepType.MID))
+        reward = jnp.where(over, 0.0, self._reward(state, new, ended)) * self.score_multiplier
+        discount = jnp.where(over | terminated, 0.0, self.discount)
+        return new, self._timestep(new, step_type.astype(jnp.int32), reward.astype(jnp.float32),
+                                   discount.astype(jnp.float32))
+
+    def episode_over(self, state: EnvState, params: EnvParams):
+        """bool: the episode has ended (a LAST timestep was, or will be, emitted)."""
+        limit = params.game_steps_per_episode
+        truncated = (limit > 0) & (state.game_loop >= limit)
+        return (state.outcome != Outcome.RUNNING) | truncated
+
+    def observe(self, state: EnvState) -> dict:
+        """The padded observation of a state."""
+        return observe(state, self.renderer, self.card_table)
+
+    # Internals.
+
+    def _timestep(self, state, step_type, reward, discount):
+        return dm_env.TimeStep(step_type=step_type, reward=reward, discount=discount,
+                               observation=self.observe(state))
+
+    def _reward(self, old: EnvState, new: EnvState, ended):
+        if self.score_index < 0:
+            outcome = {Outcome.VICTORY: 1.0, Outcome.DEFEAT: -1.0}
+            value = sum(jnp.where(new.outcome == o, v, 0.0) for o, v in outcome.items())
+            return jnp.where(ended, value, 0.0)
+        return (self._score(new) - self._score(old)).astype(jnp.float32)
+
+    def _score(self, state: EnvState):
+        return state.score_cumulative.at[0].set(state.score)[self.score_index]
+
+    def _initial_state(self, key) -> EnvState:
+        init_key, state_key = jax.random.split(key)
+        units, map_state, next_tag = self.game.init(init_key)
+        h, w = self.game.geometry.size[1], self.game.geometry.size[0]
+        state = EnvState(
+            units=units, camera=jnp.asarray(self.game.camera, jnp.float32),
+            game_loop=jnp.int32(0), score=jnp.int32(0),
+            score_cumulative=jnp.zeros(NUM_SCORE_CUMULATIVE, jnp.int32),
+            score_by_vital=jnp.zeros((3, 3), jnp.float32),
+            minerals=jnp.int32(self.game.starting_minerals), vespene=jnp.int32(0),
+            explored=jnp.zeros((h, w), bool), next_tag=jnp.int32(next_tag),
+            last_action=jnp.int32(-1), action_result=jnp.int32(0),
+            outcome=jnp.int32(Outcome.RUNNING), episode_step=jnp.int32(0),
+            map_state=map_state, key=state_key)
+        return self._explore(state)
+
+    def _advance(self, state: EnvState, action: DenseAction) -> EnvState:
+        state = apply_action(state, action, self.renderer, self.card_table)
+        game = self.game
+        value = jnp.asarray(UNIT_DATA.mineral_cost + UNIT_DATA.vespene_cost, jnp.int32)
+
+        def one_loop(state: EnvState, _):
+            running = state.outcome == Outcome.RUNNING
+            key, loop_key = jax.random.split(state.key)
+            units, events = game_loop(state.units, loop_key, game.geometry.playable)
+            enemy_died = events.died & (state.units.owner == Owner.ENEMY)
+            killed_value = jnp.sum(jnp.where(enemy_died, value[state.units.type], 0))
+            vital = state.score_by_vital.at[0, 0].add(events.damage_dealt).at[1, 0].add(
+                events.damage_taken)
+            cumulative = state.score_cumulative.at[ScoreCumulative.killed_value_units].add(
+                killed_value)
+            new = state.replace(units=units, key=key, game_loop=state.game_loop + 1,
+                                score_by_vital=vital, score_cumulative=cumulative)
+            new = game.on_loop(new, events)
+            timer = (new.game_loop >= game.time_limit_loops) & (new.outcome == Outcome.RUNNING)
+            new = new.replace(outcome=jnp.where(timer, int(Outcome.VICTORY), new.outcome))
+            frozen = state.replace(game_loop=state.game_loop + 1)
+            return jax.tree_util.tree_map(lambda a, b: jnp.where(running, a, b), new,
+                                          frozen), None
+
+        state, _ = jax.lax.scan(one_loop, state, None, length=self.step_mul)
+        state = game.on_step(state)
+        own = state.units.alive & (state.units.owner == Owner.SELF)
+        unit_value = jnp.sum(jnp.where(own, value[state.units.type], 0))
+        state = state.replace(
+            episode_step=state.episode_step + 1,
+            score_cumulative=state.score_cumulative.at[ScoreCumulative.total_value_units].set(
+                unit_value))
+        return self._explore(state)
+
+    def _explore(self, state: EnvState) -> EnvState:
+        """Marks the map cells the player's units see as explored (fog maps only)."""
+        if not self.game.fog:
+            return state
+        w, h = self.game.geometry.size
+        xs = jnp.arange(w, dtype=jnp.float32) + 0.5
+        ys = h - 1 - jnp.arange(h, dtype=jnp.float32) + 0.5
+        units = state.units
+        sight = jnp.asarray(UNIT_DATA.sight)[units.type]
+        eyes = units.alive & (units.owner == Owner.SELF)
+        d2 = ((ys[None, :, None] - units.pos[:, 1, None, None]) ** 2
+              + (xs[None, None, :] - units.pos[:, 0, None, None]) ** 2)
+        seen = jnp.any(eyes[:, None, None] & (d2 <= (sight * sight)[:, None, None]), axis=0)
+        return state.replace(explored=state.explored | seen)

@@ -1,0 +1,148 @@
+"""The simulator's state: fixed-size unit arrays with an alive mask, and the game around them.
+
+Everything is a pytree of arrays (`flax.struct.dataclass`), so states can be jitted,
+vmapped, and compared bit for bit. `N` is the number of unit slots, fixed per map, and
+`Q` the number of queued orders a unit can hold.
+"""
+
+from __future__ import annotations
+
+import enum
+
+import jax
+import jax.numpy as jnp
+from flax import struct
+
+from sc2jax.environment import observation_tables as tables
+
+ORDER_QUEUE = 4
+NO_TARGET = -1
+
+
+class Order(enum.IntEnum):
+    """What a unit is doing. `NONE` is idle."""
+
+    NONE = 0
+    MOVE = 1
+    ATTACK_MOVE = 2
+    ATTACK_UNIT = 3
+    PATROL = 4
+    HOLD = 5
+
+
+class Owner(enum.IntEnum):
+    """Player ids, as in the `player_id` layers (16 is neutral)."""
+
+    NONE = 0
+    SELF = 1
+    ENEMY = 2
+    NEUTRAL = 16
+
+
+@struct.dataclass
+class Units:
+    """All unit slots. Every field has leading dimension N.
+
+    Attributes:
+      alive: bool[N]; dead or unused slots are False and ignored everywhere.
+      type: int32[N] `UnitType`.
+      owner: int32[N] `Owner`.
+      tag: int32[N] unique per created unit (a wave reset's replacements get new tags).
+      pos: float32[N, 2] world position (x, y), y up.
+      facing: float32[N] radians, 0 along +x.
+      health, shields, energy: float32[N].
+      cooldown: float32[N] loops until the weapon can fire.
+      orders: int32[N, Q] `Order` queue; slot 0 is current.
+      order_pos: float32[N, Q, 2] target points.
+      order_unit: int32[N, Q] target unit slots, or -1.
+      patrol_origin: float32[N, 2] where the current patrol leg started.
+      target: int32[N] the unit being engaged (acquired or ordered), or -1.
+      selected: bool[N].
+      groups: int32[N] control-group membership bitmask (bit g for group g).
+    """
+
+    alive: jax.Array
+    type: jax.Array
+    owner: jax.Array
+    tag: jax.Array
+    pos: jax.Array
+    facing: jax.Array
+    health: jax.Array
+    shields: jax.Array
+    energy: jax.Array
+    cooldown: jax.Array
+    orders: jax.Array
+    order_pos: jax.Array
+    order_unit: jax.Array
+    patrol_origin: jax.Array
+    target: jax.Array
+    selected: jax.Array
+    groups: jax.Array
+
+    @property
+    def num_slots(self) -> int:
+        return self.alive.shape[-1]
+
+    @classmethod
+    def empty(cls, num_slots: int) -> Units:
+        """Returns N empty slots."""
+        n, q = num_slots, ORDER_QUEUE
+        f = lambda *s: jnp.zeros(s, jnp.float32)  # noqa: E731
+        i = lambda *s: jnp.zeros(s, jnp.int32)  # noqa: E731
+        return cls(
+            alive=jnp.zeros(n, bool), type=i(n), owner=i(n), tag=i(n), pos=f(n, 2),
+            facing=f(n), health=f(n), shields=f(n), energy=f(n), cooldown=f(n),
+            orders=i(n, q), order_pos=f(n, q, 2), order_unit=jnp.full((n, q), NO_TARGET),
+            patrol_origin=f(n, 2), target=jnp.full((n,), NO_TARGET),
+            selected=jnp.zeros(n, bool), groups=i(n))
+
+
+@struct.dataclass
+class EnvState:
+    """The whole game state of one environment.
+
+    Attributes:
+      units: the unit slots.
+      camera: float32[2] world point at the centre of the screen.
+      game_loop: int32 scalar.
+      score: int32 scalar, the curriculum score (`score_cumulative[0]`).
+      score_cumulative: int32[13] the rest of `score_cumulative` (index 0 mirrors `score`).
+      score_by_vital: float32[3, 3] `score_by_vital` (damage dealt, taken, healed).
+      minerals, vespene: int32 scalars.
+      explored: bool[map_h, map_w] cells the player has ever seen, row 0 at the top (as
+        the `MapGeometry` grids).
+      next_tag: int32 scalar, the next unit tag.
+      last_action: int32 scalar, the function id executed last step, or -1.
+      action_result: int32 scalar, the `ActionResult` of a failed action, or 0.
+      outcome: int32 scalar, 0 while running, then 1 victory, 2 defeat, 3 tie.
+      episode_step: int32 scalar, agent steps since the episode started.
+      map_state: the map script's own state (a pytree).
+      key: the RNG key for everything random in the game.
+    """
+
+    units: Units
+    camera: jax.Array
+    game_loop: jax.Array
+    score: jax.Array
+    score_cumulative: jax.Array
+    score_by_vital: jax.Array
+    minerals: jax.Array
+    vespene: jax.Array
+    explored: jax.Array
+    next_tag: jax.Array
+    last_action: jax.Array
+    action_result: jax.Array
+    outcome: jax.Array
+    episode_step: jax.Array
+    map_state: object
+    key: jax.Array
+
+
+class Outcome(enum.IntEnum):
+    RUNNING = 0
+    VICTORY = 1
+    DEFEAT = 2
+    TIE = 3
+
+
+NUM_SCORE_CUMULATIVE = len(tables.ScoreCumulative)
