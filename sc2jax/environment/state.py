@@ -92,8 +92,8 @@ class Units:
         return cls(
             alive=jnp.zeros(n, bool), type=i(n), owner=i(n), tag=i(n), pos=f(n, 2),
             facing=f(n), health=f(n), shields=f(n), energy=f(n), cooldown=f(n),
-            orders=i(n, q), order_pos=f(n, q, 2), order_unit=jnp.full((n, q), NO_TARGET),
-            patrol_origin=f(n, 2), target=jnp.full((n,), NO_TARGET),
+            orders=i(n, q), order_pos=f(n, q, 2), order_unit=jnp.full((n, q), NO_TARGET, jnp.int32),
+            patrol_origin=f(n, 2), target=jnp.full((n,), NO_TARGET, jnp.int32),
             selected=jnp.zeros(n, bool), groups=i(n))
 
 
