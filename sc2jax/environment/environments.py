@@ -37,6 +37,9 @@ def to_pysc2_layout(padded: dict, map_name: str) -> dict:
     for key in _UNIT_ROW_KEYS:
         if key in out:
             out[key] = out[key][out[key][:, 0] != 0]
+    for key in ("feature_units", "raw_units"):
+        if key in out:
+            out[key] = out[key].astype(np.int64)
     out["production_queue"] = out["production_queue"][out["production_queue"][:, 0] != 0]
     out["last_actions"] = out["last_actions"][out["last_actions"] >= 0]
     for key in ("action_result", "alerts", "upgrades"):

@@ -69,7 +69,7 @@ def _control_groups(units: Units):
 
 def feature_units(units: Units, include, pixel_pos, pixel_radius, on_screen, length,
                   with_tags: bool):
-    """int64[length, 46] `FeatureUnit` rows of the units where `include`, in slot order.
+    """int32[length, 46] `FeatureUnit` rows of the units where `include`, in slot order.
 
     Coordinates and radii are in the pixels of `pixel_pos`/`pixel_radius` (screen for
     `feature_units`, minimap for `raw_units`). Raw order ids are not reported (0).
@@ -102,7 +102,7 @@ def feature_units(units: Units, include, pixel_pos, pixel_radius, on_screen, len
         "tag": units.tag if with_tags else zeros,
         "is_on_screen": on_screen.astype(jnp.int32),
     }
-    rows = jnp.stack([columns.get(f.name, zeros).astype(jnp.int64)
+    rows = jnp.stack([columns.get(f.name, zeros).astype(jnp.int32)
                       for f in tables.FeatureUnit], axis=-1)
     return _pad_rows(rows, include, length)
 

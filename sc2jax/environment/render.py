@@ -1,7 +1,7 @@
 """Feature-layer rendering: the screen and minimap layers of PySC2 v4 from the state.
 
 A unit covers every pixel whose centre lies within its radius, and always the pixel that
-contains its centre. Where units overlap, the one drawn on top (ground units over
+contains its centre (`paint`). Where units overlap, the one drawn on top (ground units over
 structures over resources over beacons, then the higher slot) gives the categorical and
 per-unit values; `unit_density` counts all of them. Only the layers the observation
 format asks for are computed.
@@ -32,6 +32,23 @@ _PLAYER_RELATIVE = {Owner.SELF: PlayerRelative.SELF, Owner.ENEMY: PlayerRelative
                     Owner.NEUTRAL: PlayerRelative.NEUTRAL}
 
 
+PACKING = {
+    "unit_type": (0, 0, 11),
+    "player_relative": (0, 11, 3),
+    "player_id": (0, 14, 5),
+    "selected": (0, 19, 1),
+    "unit_hit_points_ratio": (0, 20, 8),
+    "unit_hit_points": (1, 0, 13),
+    "unit_energy": (1, 13, 10),
+    "unit_energy_ratio": (1, 23, 8),
+    "unit_shields": (2, 0, 11),
+    "unit_shields_ratio": (2, 11, 8),
+}
+"""Per-unit layer -> (word, bit shift, bits): how `Renderer` packs per-unit values.
+Values beyond a field's bits are clipped (hit points at 8191, energy at 1023, shields at
+2047; no unit reaches these)."""
+
+
 def player_relative(owner):
     """int32[N] `PlayerRelative` of each owner."""
     out = jnp.zeros_like(owner)
@@ -45,38 +62,57 @@ def ratio_255(value, maximum):
     return jnp.where(maximum > 0, (value / jnp.maximum(maximum, 1e-6) * 255), 0).astype(jnp.int32)
 
 
-def coverage(pixel_pos, pixel_radius, size, shown):
-    """Which units cover which pixels.
+def paint(pixel_pos, pixel_radius, rank, shown, size, box: int, with_density: bool = False):
+    """Draws units as discs on a pixel grid, keeping the highest rank at each pixel.
+
+    A unit covers the pixels whose centres lie within its radius, and always the pixel
+    holding its centre. Each unit is drawn inside a `box` x `box` window around its
+    centre pixel (box must cover the largest radius), with one scatter per window.
 
     Args:
       pixel_pos: float32[N, 2] continuous pixel coordinates (x, y) of unit centres.
       pixel_radius: float32[N] radii in pixels.
-      size: (width, height) in pixels.
+      rank: int32[N] >= 0 drawing priority (distinct per unit).
       shown: bool[N] units that may be drawn.
+      size: (width, height) in pixels.
+      box: odd window size, >= 2 * ceil(max radius + 0.5) + 1.
+      with_density: also count the units covering each pixel.
 
     Returns:
-      bool[N, height, width].
+      (top int32[H, W]: the highest rank drawn at each pixel or -1,
+       density int32[H, W] or None).
     """
     w, h = size
-    cols = jnp.arange(w, dtype=jnp.float32) + 0.5
-    rows = jnp.arange(h, dtype=jnp.float32) + 0.5
-    dx = cols[None, :] - pixel_pos[:, 0:1]
-    dy = rows[None, :] - pixel_pos[:, 1:2]
-    r2 = (pixel_radius * pixel_radius)[:, None, None]
-    inside = dy[:, :, None] ** 2 + dx[:, None, :] ** 2 <= r2
+    offsets = jnp.arange(box) - box // 2
     cx = jnp.floor(pixel_pos[:, 0]).astype(jnp.int32)
     cy = jnp.floor(pixel_pos[:, 1]).astype(jnp.int32)
-    at_centre = ((jnp.arange(h)[None, :] == cy[:, None])[:, :, None]
-                 & (jnp.arange(w)[None, :] == cx[:, None])[:, None, :])
-    return (inside | at_centre) & shown[:, None, None]
+    px = cx[:, None] + offsets[None, :]
+    py = cy[:, None] + offsets[None, :]
+    dx = px.astype(jnp.float32) + 0.5 - pixel_pos[:, 0:1]
+    dy = py.astype(jnp.float32) + 0.5 - pixel_pos[:, 1:2]
+    centre = (offsets[:, None] == 0) & (offsets[None, :] == 0)
+    inside = (dy[:, :, None] ** 2 + dx[:, None, :] ** 2
+              <= (pixel_radius * pixel_radius)[:, None, None]) | centre[None]
+    in_bounds = ((py >= 0) & (py < h))[:, :, None] & ((px >= 0) & (px < w))[:, None, :]
+    drawn = inside & in_bounds & shown[:, None, None]
+    index = jnp.where(drawn, py[:, :, None] * w + px[:, None, :], h * w).reshape(-1)
+    ranks = jnp.broadcast_to(rank[:, None, None], drawn.shape).reshape(-1)
+    top = jnp.full((h * w + 1,), -1, jnp.int32).at[index].max(ranks)[:h * w].reshape(h, w)
+    density = None
+    if with_density:
+        density = jnp.zeros((h * w + 1,), jnp.int32).at[index].add(1)[:h * w].reshape(h, w)
+    return top, density
 
 
-def top_unit(cover, units: Units):
-    """int32[H, W]: the slot drawn on top at each pixel, or -1."""
+def box_size(max_radius_pixels: float) -> int:
+    """The window `paint` needs for units up to this radius."""
+    return 2 * int(np.ceil(max_radius_pixels + 0.5)) + 1
+
+
+def draw_rank(units: Units):
+    """int32[N]: drawing priority, higher on top (layer, then slot)."""
     n = units.num_slots
-    rank = jnp.asarray(_RENDER_LAYER)[units.type] * n + jnp.arange(n)
-    best = jnp.max(jnp.where(cover, rank[:, None, None], -1), axis=0)
-    return jnp.where(best >= 0, best % n, -1)
+    return jnp.asarray(_RENDER_LAYER)[units.type] * n + jnp.arange(n, dtype=jnp.int32)
 
 
 def pick_unit(units: Units, shown, pixel_pos, pixel_radius, pixel):
@@ -87,14 +123,8 @@ def pick_unit(units: Units, shown, pixel_pos, pixel_radius, pixel):
     at_centre = ((jnp.floor(pixel_pos[:, 0]).astype(jnp.int32) == pixel[0])
                  & (jnp.floor(pixel_pos[:, 1]).astype(jnp.int32) == pixel[1]))
     cover = (inside | at_centre) & shown
-    n = units.num_slots
-    rank = jnp.asarray(_RENDER_LAYER)[units.type] * n + jnp.arange(n)
-    best = jnp.max(jnp.where(cover, rank, -1))
-    return jnp.where(best >= 0, best % n, -1)
-
-
-def _gather(top, values, background=0):
-    return jnp.where(top >= 0, values[jnp.maximum(top, 0)], background).astype(jnp.int32)
+    best = jnp.max(jnp.where(cover, draw_rank(units), -1))
+    return jnp.where(best >= 0, best % units.num_slots, -1)
 
 
 class Renderer:
@@ -104,17 +134,22 @@ class Renderer:
       fmt: the observation format (resolutions and layer subsets).
       geometry: the map's static layout.
       fog: whether the map has fog of war (else the playable area is revealed).
+      max_radius: the largest unit radius on the map, world units.
+      zero_layers: per-unit layers that are zero for every unit type on the map.
       cheat_layers: fill the minimap `unit_type` layer (PySC2's `allow_cheating_layers`).
     """
 
     def __init__(self, fmt: ObservationFormat, geometry: MapGeometry, fog: bool,
-                 cheat_layers: bool = False):
+                 max_radius: float, zero_layers=(), cheat_layers: bool = False):
         self.fmt = fmt
         self.geometry = geometry
         self.fog = fog
         self.cheat_layers = cheat_layers
         self.camera = Camera(fmt.screen_size)
         self.minimap = Minimap(fmt.minimap_size, geometry)
+        self.zero_layers = frozenset(zero_layers)
+        self.screen_box = box_size(max_radius * self.camera.pixels_per_unit)
+        self.minimap_box = box_size(max_radius * self.minimap.pixels_per_unit)
 
     # Per-unit visibility and attributes.
 
@@ -155,77 +190,102 @@ class Renderer:
     def _terrain(self, grid, xs, ys):
         return cell_lookup(grid, self.geometry.size[1], xs, ys, 0).astype(jnp.int32)
 
-    def screen(self, state: EnvState):
-        """int32[len(screen_layers), H, W]."""
+    def _draw(self, state: EnvState, names, size, pixel_pos, pixel_radius, box, xs, ys,
+              extra: dict):
+        """Renders the named layers of one view (screen or minimap).
+
+        Args:
+          state: the state.
+          names: the layer names, in output order.
+          size: (width, height) in pixels.
+          pixel_pos, pixel_radius: the units in this view's pixels.
+          box: the `paint` window.
+          xs, ys: world x of each column and y of each row.
+          extra: name -> () -> int32[H, W] for layers specific to this view.
+
+        Returns:
+          int32[len(names), H, W].
+        """
         units = state.units
-        center = state.camera
-        xs, ys = self.camera.pixel_centers(center)
-        shown = self.units_shown(state)
-        pixel_pos = self.camera.world_to_pixel(center, units.pos)
-        radius = jnp.asarray(UNIT_DATA.radius)[units.type] * self.camera.pixels_per_unit
-        cache = {}
-
-        def cover():
-            if "cover" not in cache:
-                cache["cover"] = coverage(pixel_pos, radius, self.camera.size, shown)
-            return cache["cover"]
-
-        def top():
-            if "top" not in cache:
-                cache["top"] = top_unit(cover(), units)
-            return cache["top"]
-
-        def density():
-            return jnp.sum(cover(), axis=0, dtype=jnp.int32)
-
         per_unit = self._unit_values(units)
-        zeros = lambda: jnp.zeros(self.camera.size[::-1], jnp.int32)  # noqa: E731
-        g = self.geometry
-        layers: dict[str, Callable[[], jnp.ndarray]] = {
-            "height_map": lambda: self._terrain(g.height_map, xs, ys),
-            "visibility_map": lambda: self._visibility(state, xs, ys),
-            "pathable": lambda: self._terrain(g.pathable, xs, ys),
-            "buildable": lambda: self._terrain(g.buildable, xs, ys),
-            "unit_density": lambda: jnp.minimum(density(), 15),
-            "unit_density_aa": lambda: jnp.minimum(density() * 16, 255),
-        }
-        for name, values in per_unit.items():
-            layers[name] = lambda v=values: _gather(top(), v())
-        out = [layers.get(f.name, zeros)() for f in self.fmt.screen_layers]
-        return jnp.stack(out).astype(jnp.int32)
-
-    def minimap_layers(self, state: EnvState):
-        """int32[len(minimap_layers), H, W]."""
-        units = state.units
-        xs, ys = self.minimap.pixel_centers()
-        shown = self.units_shown(state)
-        pixel_pos = self.minimap.world_to_pixel(units.pos)
-        radius = jnp.asarray(UNIT_DATA.radius)[units.type] * self.minimap.pixels_per_unit
-        cache = {}
-
-        def top():
-            if "top" not in cache:
-                cache["top"] = top_unit(coverage(pixel_pos, radius, self.minimap.size, shown),
-                                        units)
-            return cache["top"]
-
-        per_unit = self._unit_values(units)
-        zeros = lambda: jnp.zeros(self.minimap.size[::-1], jnp.int32)  # noqa: E731
+        unit_names = [name for name in names if name in per_unit]
+        wants_density = any(name.startswith("unit_density") for name in names)
+        top = density = None
+        if unit_names or wants_density:
+            top, density = paint(pixel_pos, pixel_radius, draw_rank(units),
+                                 self.units_shown(state), size, box, wants_density)
+        if unit_names:
+            drawn = self._gather_unit_layers(units, unit_names, top)
         g = self.geometry
         layers = {
             "height_map": lambda: self._terrain(g.height_map, xs, ys),
             "visibility_map": lambda: self._visibility(state, xs, ys),
-            "camera": lambda: self._camera_layer(state.camera, xs, ys),
-            "player_id": lambda: _gather(top(), per_unit["player_id"]()),
-            "player_relative": lambda: _gather(top(), per_unit["player_relative"]()),
-            "selected": lambda: _gather(top(), per_unit["selected"]()),
             "pathable": lambda: self._terrain(g.pathable, xs, ys),
             "buildable": lambda: self._terrain(g.buildable, xs, ys),
+            "unit_density": lambda: jnp.minimum(density, 15),
+            "unit_density_aa": lambda: jnp.minimum(density * 16, 255),
+            **extra,
         }
-        if self.cheat_layers:
-            layers["unit_type"] = lambda: _gather(top(), per_unit["unit_type"]())
-        out = [layers.get(f.name, zeros)() for f in self.fmt.minimap_layers]
-        return jnp.stack(out).astype(jnp.int32)
+        for name in unit_names:
+            layers[name] = lambda name=name: drawn[name]
+        zeros = lambda: jnp.zeros(size[::-1], jnp.int32)  # noqa: E731
+        return jnp.stack([layers.get(name, zeros)() for name in names]).astype(jnp.int32)
+
+    def _gather_unit_layers(self, units: Units, names, top) -> dict:
+        """Looks up the per-unit layers at each pixel's top unit.
+
+        Layers are bit-packed into at most three int32 words per unit (`PACKING`), so a
+        pixel needs one table lookup per word rather than one per layer. Layers that are
+        zero for every unit type of the map (energy and shields on these maps) cost no
+        lookup.
+        """
+        n = units.num_slots
+        per_unit = self._unit_values(units)
+        rows = jnp.where(top >= 0, top % n, n)
+        out = {}
+        words: dict[int, list[str]] = {}
+        for name in names:
+            if name in self.zero_layers:
+                out[name] = jnp.zeros(top.shape, jnp.int32)
+            else:
+                words.setdefault(PACKING[name][0], []).append(name)
+        for fields in words.values():
+            packed = jnp.zeros(n, jnp.int32)
+            for name in fields:
+                _, shift, bits = PACKING[name]
+                value = jnp.clip(per_unit[name](), 0, (1 << bits) - 1)
+                packed = packed | jnp.left_shift(value.astype(jnp.int32), shift)
+            table = jnp.concatenate([packed, jnp.zeros(1, jnp.int32)])
+            pixels = table[rows]
+            for name in fields:
+                _, shift, bits = PACKING[name]
+                out[name] = jnp.right_shift(pixels, shift) & ((1 << bits) - 1)
+        return out
+
+    def screen(self, state: EnvState):
+        """int32[len(screen_layers), H, W]."""
+        units = state.units
+        camera = self.camera
+        xs, ys = camera.pixel_centers(state.camera)
+        radius = jnp.asarray(UNIT_DATA.radius)[units.type] * camera.pixels_per_unit
+        return self._draw(state, [f.name for f in self.fmt.screen_layers], camera.size,
+                          camera.world_to_pixel(state.camera, units.pos), radius,
+                          self.screen_box, xs, ys, {})
+
+    def minimap_layers(self, state: EnvState):
+        """int32[len(minimap_layers), H, W]."""
+        units = state.units
+        minimap = self.minimap
+        xs, ys = minimap.pixel_centers()
+        radius = jnp.asarray(UNIT_DATA.radius)[units.type] * minimap.pixels_per_unit
+        names = [f.name for f in self.fmt.minimap_layers]
+        if not self.cheat_layers:  # PySC2 fills the minimap unit_type only when cheating.
+            names_drawn = ["_none" if name == "unit_type" else name for name in names]
+        else:
+            names_drawn = names
+        extra = {"camera": lambda: self._camera_layer(state.camera, xs, ys)}
+        return self._draw(state, names_drawn, minimap.size, minimap.world_to_pixel(units.pos),
+                          radius, self.minimap_box, xs, ys, extra)
 
     def _camera_layer(self, center, xs, ys):
         hx, hy = self.camera.view_half_extent()

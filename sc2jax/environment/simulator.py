@@ -84,7 +84,8 @@ class Simulator:
             raise ValueError(f"discount must be in [0, 1], got {self.discount!r}")
         object.__setattr__(self, "game", game)
         object.__setattr__(self, "renderer", Renderer(
-            self.fmt, game.geometry, game.fog, self.allow_cheating_layers))
+            self.fmt, game.geometry, game.fog, game.max_radius, game.zero_layers,
+            self.allow_cheating_layers))
 
     # Specs.
 

@@ -9,8 +9,8 @@ Two observation layouts share these specs:
 - **Padded layout** (`padded=True`): what the functional simulator and the batched
   environment return, every shape fixed so it can be jitted and vmapped. Unit
   lists are padded with zero rows (no real unit has type 0), `last_actions` with
-  -1, `action_result` and `alerts` with 0, and `available_actions` is a boolean
-  mask over all function ids.
+  -1, `action_result` and `alerts` with 0, `available_actions` is a boolean mask over
+  all function ids, and `feature_units`/`raw_units` are int32 (JAX runs without x64).
 """
 
 from __future__ import annotations
@@ -174,12 +174,14 @@ def observation_spec(fmt: ObservationFormat = ObservationFormat(), *,
         out["available_actions"] = VariableLengthArray(
             (NUM_FUNCTIONS,), np.dtype(np.int32), name="available_actions")
         out["map_name"] = StringSpec(name="map_name")
+    # PySC2 gives the unit lists as int64; JAX (without x64) computes them as int32.
+    units_dtype = np.int32 if padded else np.int64
     if fmt.use_feature_units:
         out["feature_units"] = variable(
-            "feature_units", fmt.max_units, (len(tables.FeatureUnit),), np.int64)
+            "feature_units", fmt.max_units, (len(tables.FeatureUnit),), units_dtype)
     if fmt.use_raw_units:
         out["raw_units"] = variable(
-            "raw_units", fmt.max_units, (len(tables.FeatureUnit),), np.int64)
+            "raw_units", fmt.max_units, (len(tables.FeatureUnit),), units_dtype)
     return out
 
 

@@ -32,7 +32,9 @@ def test_padded_layout_is_fixed():
     spec = observation_spec(ObservationFormat(32, 24, max_units=16, use_feature_units=True),
                             padded=True)
     assert spec["multi_select"].shape == (16, 7)
-    assert spec["feature_units"].shape == (16, 46) and spec["feature_units"].dtype == np.int64
+    assert spec["feature_units"].shape == (16, 46) and spec["feature_units"].dtype == np.int32
+    pysc2 = observation_spec(ObservationFormat(use_feature_units=True))
+    assert pysc2["feature_units"].dtype == np.int64
     assert spec["available_actions"].shape == (573,)
     assert spec["available_actions"].dtype == np.bool_
     assert spec["feature_minimap"].shape == (11, 24, 24)

@@ -19,7 +19,7 @@ import numpy as np
 from sc2jax.environment.dynamics import LoopEvents
 from sc2jax.environment.geometry import MapGeometry
 from sc2jax.environment.state import NO_TARGET, EnvState, Order, Units
-from sc2jax.environment.units import UNIT_DATA
+from sc2jax.environment.units import UNIT_DATA, UnitType
 
 Rect = tuple[float, float, float, float]
 
@@ -53,6 +53,7 @@ class MiniGame:
       geometry: the map's static layout.
       fog: whether fog of war is on (else the playable area is revealed).
       camera: the camera centre the script pans to.
+      unit_types: every `UnitType` the map can hold (sizes the renderer's windows).
       starting_minerals: the player's minerals at the start.
     """
 
@@ -62,6 +63,7 @@ class MiniGame:
     geometry: MapGeometry
     fog: bool
     camera: tuple[float, float]
+    unit_types: tuple[UnitType, ...]
     starting_minerals: int = 0
 
     def init(self, key) -> tuple[Units, Any, jax.Array]:
@@ -83,6 +85,21 @@ class MiniGame:
     @property
     def time_limit_loops(self) -> int:
         return self.time_limit * 16
+
+    @property
+    def zero_layers(self) -> tuple[str, ...]:
+        """Per-unit layers that are zero for every unit type of the map."""
+        out = []
+        if all(UNIT_DATA.max_energy[t] == 0 for t in self.unit_types):
+            out += ["unit_energy", "unit_energy_ratio"]
+        if all(UNIT_DATA.max_shields[t] == 0 for t in self.unit_types):
+            out += ["unit_shields", "unit_shields_ratio"]
+        return tuple(out)
+
+    @property
+    def max_radius(self) -> float:
+        """The largest radius of the map's unit types, world units."""
+        return float(max(UNIT_DATA.radius[t] for t in self.unit_types))
 
 
 def uniform_in_rect(key, rect: Rect, shape=()):

@@ -100,7 +100,8 @@ class FindAndDefeatZerglings(MiniGame):
     def __init__(self):
         super().__init__(name="FindAndDefeatZerglings", time_limit=180,
                          num_slots=NUM_MARINES + NUM_ZERGLINGS,
-                         geometry=flat_geometry(REGION_1), fog=True, camera=(32.0, 25.0))
+                         geometry=flat_geometry(REGION_1), fog=True, camera=(32.0, 25.0),
+                         unit_types=(UnitType.MARINE, UnitType.ZERGLING))
 
     def init(self, key):
         units = Units.empty(self.num_slots)

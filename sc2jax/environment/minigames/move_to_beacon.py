@@ -45,7 +45,8 @@ class MoveToBeacon(MiniGame):
     def __init__(self):
         super().__init__(name="MoveToBeacon", time_limit=120, num_slots=2,
                          geometry=flat_geometry(REGION_1), fog=False,
-                         camera=(33.0, 25.0))
+                         camera=(33.0, 25.0),
+                         unit_types=(UnitType.MARINE, UnitType.BEACON))
 
     def init(self, key):
         k_marine, k_beacon = jax.random.split(key)

@@ -1,0 +1,86 @@
+"""Builds a network by name from the environment's observation format, and acts."""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from typing import Any
+
+import flax.linen as nn
+import jax
+
+from sc2jax.environment.dense import DenseAction
+from sc2jax.environment.specs import ObservationFormat
+from sc2jax.networks import policy
+from sc2jax.networks.ar_fully_conv import ARFullyConv
+from sc2jax.networks.atari_net import AtariNet
+from sc2jax.networks.fully_conv import FullyConv
+from sc2jax.networks.fully_conv_lstm import FullyConvLSTM
+from sc2jax.networks.outputs import NetworkOutput
+from sc2jax.networks.spec import DEFAULT_NONSPATIAL_KEYS, NetworkSpec
+
+NETWORKS: dict[str, type[nn.Module]] = {
+    "atari": AtariNet,
+    "fullyconv": FullyConv,
+    "fullyconv_lstm": FullyConvLSTM,
+    "arfullyconv": ARFullyConv,
+}
+"""The networks by name."""
+
+
+def make_network(name: str, fmt: ObservationFormat | NetworkSpec, *,
+                 nonspatial_keys: Sequence[str] = DEFAULT_NONSPATIAL_KEYS,
+                 **kwargs: Any) -> nn.Module:
+    """Builds a network, its sizes taken from the environment's specs.
+
+    Args:
+      name: one of "atari", "fullyconv", "fullyconv_lstm", "arfullyconv".
+      fmt: the environment's `ObservationFormat` (`env.simulator.fmt`), from which the
+        padded observation spec and the action spec are derived; or a `NetworkSpec`.
+      nonspatial_keys: observation keys for the non-spatial input (ignored for a
+        `NetworkSpec`).
+      **kwargs: the network's own attributes (e.g. `hidden=256`, `lstm_features=32`).
+
+    Returns:
+      An unbound Flax module.
+
+    Raises:
+      ValueError: for an unknown name (the message lists the allowed ones).
+      TypeError: if `fmt` is neither an `ObservationFormat` nor a `NetworkSpec`.
+    """
+    if name not in NETWORKS:
+        raise ValueError(f"unknown network {name!r}; allowed: {sorted(NETWORKS)}")
+    if isinstance(fmt, NetworkSpec):
+        spec = fmt
+    elif isinstance(fmt, ObservationFormat):
+        spec = NetworkSpec.from_format(fmt, nonspatial_keys)
+    else:
+        raise TypeError(f"fmt must be an ObservationFormat or a NetworkSpec, "
+                        f"got {type(fmt).__name__}")
+    return NETWORKS[name](spec, **kwargs)
+
+
+def act(network: nn.Module, params: Any, key: jax.Array | None, obs: Mapping[str, jax.Array],
+        temperature: float | jax.Array = 1.0) -> tuple[DenseAction, NetworkOutput]:
+    """Samples actions from a feed-forward network (greedy if `key` is None).
+
+    Args:
+      network: an `AtariNet`, `FullyConv` or `ARFullyConv`.
+      params: its parameters.
+      key: a PRNG key or None.
+      obs: padded observations [B, ...] with available_actions [B, F].
+      temperature: softmax temperature (> 0).
+
+    Returns:
+      (DenseAction of int32 [B...], the NetworkOutput the action was drawn from).
+
+    Raises:
+      TypeError: for a recurrent network (use `FullyConvLSTM.step` and `policy.sample`).
+    """
+    if isinstance(network, FullyConvLSTM):
+        raise TypeError("act takes a feed-forward network; for FullyConvLSTM call "
+                        "network.apply(params, carry, obs, first, method='step') then "
+                        "policy.sample")
+    if isinstance(network, ARFullyConv):
+        return network.apply(params, obs, key, temperature, method="sample")
+    out = network.apply(params, obs)
+    return policy.sample(key, out, obs["available_actions"], temperature), out

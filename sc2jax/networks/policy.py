@@ -1,0 +1,204 @@
+"""The composite policy distribution over dense actions (paper §4.2).
+
+An action is a function id a⁰ and the arguments a¹..a^L that a⁰ takes
+(`FUNCTION_ARGS_MASK`). With independent heads (or, for arFullyConv, heads already
+conditioned on a⁰ and a^{<l}),
+
+    log π(a|s) = log π(a⁰|s) + Σ_{l used by a⁰} log π(a^l | a^{<l}, s).
+
+Unavailable function ids are masked out and the distribution over a⁰ renormalised
+(their logits are set to `MASKED_LOGIT`, so their probability is exactly 0 in float32
+and they are never sampled). Arguments the function does not use contribute nothing:
+no log-probability, no gradient, and they are set to 0 in sampled actions.
+
+Point logits may be `PixelLogits` (one softmax over pixels) or `XYLogits`
+(independent x and y: log π(x, y) = log π(x) + log π(y), H = H(x) + H(y)).
+"""
+
+from __future__ import annotations
+
+from typing import Any, NamedTuple
+
+import jax
+import jax.numpy as jnp
+
+from sc2jax.environment.dense import DenseAction
+from sc2jax.environment.functions import FUNCTION_ARGS_MASK
+from sc2jax.networks.outputs import NetworkOutput, PixelLogits, XYLogits
+
+MASKED_LOGIT = -1e9
+"""The logit given to unavailable function ids (exp underflows to exactly 0)."""
+
+
+class PolicyLogProb(NamedTuple):
+    """Log-probabilities of a composite action.
+
+    Attributes:
+      total: [B...] log π(a|s), the function plus the used arguments.
+      function: [B...] log π(a⁰|s) under the availability mask.
+      arguments: 13-tuple (`TYPES` order) of [B...] log π(a^l|...), 0 where unused.
+    """
+
+    total: jax.Array
+    function: jax.Array
+    arguments: tuple[jax.Array, ...]
+
+
+class PolicyEntropy(NamedTuple):
+    """Entropies of each part of the policy (nats).
+
+    Attributes:
+      function: [B...] entropy of the masked function-id distribution.
+      arguments: 13-tuple (`TYPES` order) of [B...] argument entropies (for every
+        argument, used or not; weight them with `used_arguments`).
+    """
+
+    function: jax.Array
+    arguments: tuple[jax.Array, ...]
+
+
+def mask_function_logits(function_logits: jax.Array, available_actions: jax.Array) -> jax.Array:
+    """Sets the logits of unavailable function ids to `MASKED_LOGIT`.
+
+    Args:
+      function_logits: [B..., F].
+      available_actions: [B..., F] bool (or 0/1) mask.
+
+    Returns:
+      [B..., F] masked logits; softmax of them renormalises over available ids.
+    """
+    if jnp.shape(available_actions) != jnp.shape(function_logits):
+        raise ValueError(f"available_actions has shape {jnp.shape(available_actions)}; expected "
+                         f"the function logits' shape {jnp.shape(function_logits)}")
+    return jnp.where(jnp.asarray(available_actions).astype(bool), function_logits, MASKED_LOGIT)
+
+
+def used_arguments(function_id: jax.Array) -> jax.Array:
+    """[B...] function ids -> [B..., 13] bool: which argument types each one takes."""
+    return jnp.asarray(FUNCTION_ARGS_MASK)[function_id]
+
+
+def _categorical_log_prob(logits: jax.Array, value: jax.Array) -> jax.Array:
+    log_p = jax.nn.log_softmax(logits, axis=-1)
+    return jnp.take_along_axis(log_p, value.astype(jnp.int32)[..., None], axis=-1)[..., 0]
+
+
+def _categorical_entropy(logits: jax.Array) -> jax.Array:
+    log_p = jax.nn.log_softmax(logits, axis=-1)
+    return -jnp.sum(jnp.exp(log_p) * log_p, axis=-1)
+
+
+def argument_log_prob(logits: Any, value: jax.Array) -> jax.Array:
+    """log π of one argument value.
+
+    Args:
+      logits: [B..., n], `PixelLogits` or `XYLogits`.
+      value: [B...] for a scalar argument, [B..., 2] (x, y) for a point.
+
+    Returns:
+      [B...] log-probabilities.
+    """
+    if isinstance(logits, PixelLogits):
+        return _categorical_log_prob(logits.logits, logits.to_index(value))
+    if isinstance(logits, XYLogits):
+        return (_categorical_log_prob(logits.x, value[..., 0])
+                + _categorical_log_prob(logits.y, value[..., 1]))
+    return _categorical_log_prob(logits, value)
+
+
+def argument_entropy(logits: Any) -> jax.Array:
+    """Entropy [B...] of one argument's distribution (see `argument_log_prob`)."""
+    if isinstance(logits, PixelLogits):
+        return _categorical_entropy(logits.logits)
+    if isinstance(logits, XYLogits):
+        return _categorical_entropy(logits.x) + _categorical_entropy(logits.y)
+    return _categorical_entropy(logits)
+
+
+def choose(key: jax.Array | None, logits: jax.Array,
+           temperature: float | jax.Array = 1.0) -> jax.Array:
+    """Samples an index from [B..., n] logits at a temperature; argmax if `key` is None."""
+    if key is None:
+        return jnp.argmax(logits, axis=-1).astype(jnp.int32)
+    return jax.random.categorical(key, logits / temperature, axis=-1).astype(jnp.int32)
+
+
+def argument_sample(key: jax.Array | None, logits: Any,
+                    temperature: float | jax.Array = 1.0) -> jax.Array:
+    """Samples one argument (the mode if `key` is None).
+
+    Returns:
+      [B...] int32 for a scalar argument, [B..., 2] (x, y) int32 for a point.
+    """
+    if isinstance(logits, PixelLogits):
+        return logits.to_xy(choose(key, logits.logits, temperature))
+    if isinstance(logits, XYLogits):
+        kx, ky = (None, None) if key is None else jax.random.split(key)
+        return jnp.stack([choose(kx, logits.x, temperature),
+                          choose(ky, logits.y, temperature)], axis=-1)
+    return choose(key, logits, temperature)
+
+
+def zero_unused(value: jax.Array, used: jax.Array) -> jax.Array:
+    """Zeroes an argument value ([B...] or [B..., 2]) where `used` [B...] is False."""
+    return jnp.where(used[..., None] if value.ndim > used.ndim else used, value, 0)
+
+
+def sample(key: jax.Array | None, output: NetworkOutput, available_actions: jax.Array,
+           temperature: float | jax.Array = 1.0) -> DenseAction:
+    """Samples a composite action from independent heads (all networks but arFullyConv;
+    its `sample` method conditions each argument on the previous choices).
+
+    Args:
+      key: a PRNG key, or None for the greedy (mode) action.
+      output: the network output (batch shape [B...]).
+      available_actions: [B..., F] bool mask; unavailable ids are never chosen.
+      temperature: softmax temperature (> 0); low values are near-greedy.
+
+    Returns:
+      A `DenseAction` of int32 arrays; arguments the function does not use are 0.
+    """
+    if isinstance(temperature, (int, float)) and temperature <= 0:
+        raise ValueError(f"temperature must be > 0, got {temperature}; use mode() for greedy")
+    keys = [None] * 14 if key is None else list(jax.random.split(key, 14))
+    logits = mask_function_logits(output.function_logits, available_actions)
+    function = choose(keys[0], logits, temperature)
+    used = used_arguments(function)
+    args = [zero_unused(argument_sample(k, lg, temperature), used[..., i])
+            for i, (k, lg) in enumerate(zip(keys[1:], output.argument_logits))]
+    return DenseAction(function, *args)
+
+
+def mode(output: NetworkOutput, available_actions: jax.Array) -> DenseAction:
+    """The greedy action: the most likely available function and argument values."""
+    return sample(None, output, available_actions)
+
+
+def log_prob(output: NetworkOutput, action: DenseAction,
+             available_actions: jax.Array) -> PolicyLogProb:
+    """log π(a|s) = log π(a⁰|s) + Σ_{l used by a⁰} log π(a^l|·).
+
+    Args:
+      output: the network output, batch shape [B...] (for arFullyConv, computed with
+        the same `action` for teacher forcing).
+      action: a `DenseAction` with batch shape [B...].
+      available_actions: [B..., F] bool mask.
+
+    Returns:
+      `PolicyLogProb`; unused arguments give exactly 0 and no gradient.
+    """
+    if not isinstance(action, DenseAction):
+        raise TypeError(f"action must be a DenseAction, got {type(action).__name__}")
+    logits = mask_function_logits(output.function_logits, available_actions)
+    function = _categorical_log_prob(logits, action.function)
+    used = used_arguments(action.function)
+    args = tuple(jnp.where(used[..., i], argument_log_prob(lg, value), 0.0)
+                 for i, (lg, value) in enumerate(zip(output.argument_logits, action.arguments)))
+    return PolicyLogProb(function + sum(args), function, args)
+
+
+def entropy(output: NetworkOutput, available_actions: jax.Array) -> PolicyEntropy:
+    """Entropies of the masked function distribution and of every argument head."""
+    logits = mask_function_logits(output.function_logits, available_actions)
+    return PolicyEntropy(_categorical_entropy(logits),
+                         tuple(argument_entropy(lg) for lg in output.argument_logits))

@@ -1,0 +1,55 @@
+"""Shared helpers: small simulators whose compiled functions every test shares.
+
+`small_sim(name)` is the very `Simulator` that `make(name, **SMALL_MAKE)` uses, so the
+dm_env wrappers, the functional API and the contract tests compile each map once.
+"""
+
+import functools
+
+import jax
+import numpy as np
+
+from sc2jax.environment import EnvParams, ObservationFormat, Simulator
+from sc2jax.environment.agents import random_action
+from sc2jax.environment.environments import _compiled, simulator
+
+SMALL_MAKE = dict(screen_size=32, minimap_size=32, use_feature_units=True, use_raw_units=True,
+                  max_units=32)
+SMALL = ObservationFormat(**SMALL_MAKE)
+PARAMS = EnvParams(game_steps_per_episode=np.int32(0))
+
+
+def small_sim(map_name: str, fmt: ObservationFormat = SMALL) -> Simulator:
+    return simulator(map_name, fmt, 8, 0, 1.0, 1.0, False)
+
+
+def compiled(sim: Simulator, batched: bool = False):
+    """(reset(key, params), step(state, action, params)), jitted once per simulator."""
+    return _compiled(sim, batched)
+
+
+@functools.cache
+def random_actor(types):
+    """A jitted random policy for one resolution: (key, available_actions) -> action."""
+    return jax.jit(functools.partial(random_action, types=types))
+
+
+def random_episode(sim: Simulator, seed: int, steps: int):
+    """Runs `steps` random steps (auto-resetting) from a reset with `seed`.
+
+    Returns:
+      (first timestep, list of timesteps, list of actions), all as numpy.
+    """
+    reset, step = compiled(sim)
+    act = random_actor(sim.fmt.types)
+    key = jax.random.PRNGKey(seed)
+    state, ts = reset(key, PARAMS)
+    first = jax.device_get(ts)
+    timesteps, actions = [], []
+    for _ in range(steps):
+        key, k = jax.random.split(key)
+        action = act(k, ts.observation["available_actions"])
+        state, ts = step(state, action, PARAMS)
+        timesteps.append(jax.device_get(ts))
+        actions.append(jax.device_get(action))
+    return first, timesteps, actions
