@@ -31,11 +31,11 @@ from sc2jax.networks.fully_conv import FullyConvTorso
 from sc2jax.networks.heads import pixel_logits, resize
 from sc2jax.networks.outputs import ArgumentLogits, NetworkOutput
 from sc2jax.networks.policy import (
-    choose,
-    zero_unused,
     argument_sample,
+    choose,
     mask_function_logits,
     used_arguments,
+    zero_unused,
 )
 from sc2jax.networks.spec import NetworkSpec
 
