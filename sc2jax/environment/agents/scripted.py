@@ -1,0 +1,171 @@
+"""Scripted agents: how a competent human plays each mini-game, as pure jittable policies.
+
+They read the padded observation of one environment (as `Simulator` returns it) and
+return one `DenseAction`; vmap them for a batch. They are reference points for learning
+and a check on the mechanics: a scripted agent a human could beat by a wide margin
+points to a missing mechanic (docs/fidelity.md).
+
+    policy = scripted_policy("MoveToBeacon", sim.fmt)
+    action = policy(key, timestep.observation)
+
+What each needs from the observation format is checked when the policy is built
+(`required_format`).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+
+import jax
+import jax.numpy as jnp
+
+from sc2jax.environment.dense import DenseAction
+from sc2jax.environment.features import PlayerRelative, Visibility
+from sc2jax.environment.functions import FUNCTIONS
+from sc2jax.environment.observation_tables import FeatureUnit
+from sc2jax.environment.specs import ObservationFormat
+
+Policy = Callable[[jax.Array, dict], DenseAction]
+
+_NO_OP = FUNCTIONS.no_op.id
+_SELECT_POINT = FUNCTIONS.select_point.id
+_SELECT_ARMY = FUNCTIONS.select_army.id
+_MOVE_SCREEN = FUNCTIONS.Move_screen.id
+_ATTACK_MINIMAP = FUNCTIONS.Attack_minimap.id
+
+
+def call(function, **arguments) -> DenseAction:
+    """An unbatched jnp `DenseAction`: `function` with the named arguments, others 0.
+
+    Args:
+      function: int32 scalar function id (may be traced).
+      **arguments: argument-type name -> int32 value ([2] (x, y) for points).
+    """
+    fields = {}
+    for name in DenseAction._fields[1:]:
+        shape = (2,) if name in ("screen", "minimap", "screen2") else ()
+        value = arguments.pop(name, jnp.zeros(shape, jnp.int32))
+        fields[name] = jnp.broadcast_to(jnp.asarray(value, jnp.int32), shape)
+    if arguments:
+        raise ValueError(f"unknown argument types {sorted(arguments)}; allowed: "
+                         f"{list(DenseAction._fields[1:])}")
+    return DenseAction(function=jnp.asarray(function, jnp.int32), **fields)
+
+
+def pick(condition, if_true: DenseAction, if_false: DenseAction) -> DenseAction:
+    """`if_true` where `condition` (a bool scalar) holds, else `if_false`."""
+    return jax.tree_util.tree_map(lambda a, b: jnp.where(condition, a, b), if_true, if_false)
+
+
+def _units(obs, alliance):
+    """(mask bool[U], xy int32[U, 2], selected bool[U]) of the on-screen units of an
+    alliance, from `feature_units`."""
+    rows = obs["feature_units"]
+    mask = (rows[:, FeatureUnit.unit_type] != 0) & (rows[:, FeatureUnit.alliance] == alliance)
+    xy = rows[:, jnp.array([FeatureUnit.x, FeatureUnit.y])]
+    return mask, xy, mask & (rows[:, FeatureUnit.is_selected] > 0)
+
+
+def _nearest(origin, points, mask):
+    """(index, distance²) of the nearest masked point to `origin` (float32[2])."""
+    d2 = jnp.sum((points.astype(jnp.float32) - origin) ** 2, axis=-1)
+    d2 = jnp.where(mask, d2, jnp.inf)
+    index = jnp.argmin(d2)
+    return index, d2[index]
+
+
+def move_to_beacon(key, obs) -> DenseAction:
+    """Selects the marine, then moves it onto the beacon (PySC2's scripted agent)."""
+    del key
+    marine, _, selected = _units(obs, PlayerRelative.SELF)
+    beacon, beacon_xy, _ = _units(obs, PlayerRelative.NEUTRAL)
+    target = beacon_xy[jnp.argmax(beacon)]
+    move = call(_MOVE_SCREEN, screen=target)
+    act = pick(beacon.any(), move, call(_NO_OP))
+    return pick(selected.any(), act, call(_SELECT_ARMY))
+
+
+def collect_mineral_shards(key, obs) -> DenseAction:
+    """Controls the two marines in turn: select one, send it to its nearest shard.
+
+    Each marine takes the shards that are nearer to it than to the other marine, so the
+    two split the field instead of racing for the same shard. Marines are handled in
+    turn, two agent steps each (select, move), by the game loop.
+    """
+    del key
+    marine, marine_xy, selected = _units(obs, PlayerRelative.SELF)
+    shard, shard_xy, _ = _units(obs, PlayerRelative.NEUTRAL)
+    order = jnp.cumsum(marine) - 1  # 0 for the first marine row, 1 for the second.
+    count = jnp.sum(marine)
+    turn = (obs["game_loop"][0] // 16) % jnp.maximum(count, 1)
+    me = jnp.argmax(marine & (order == turn))
+    other = jnp.argmax(marine & (order != turn))
+    me_xy = marine_xy[me].astype(jnp.float32)
+    shard_f = shard_xy.astype(jnp.float32)
+    mine = jnp.sum((shard_f - me_xy) ** 2, -1) <= jnp.sum(
+        (shard_f - marine_xy[other].astype(jnp.float32)) ** 2, -1)
+    mine = shard & jnp.where(count > 1, mine, True)
+    index, _ = _nearest(me_xy, shard_xy, jnp.where(mine.any(), mine, shard))
+    only_me = selected[me] & (jnp.sum(selected) == 1)
+    move = pick(shard.any(), call(_MOVE_SCREEN, screen=shard_xy[index]), call(_NO_OP))
+    select = call(_SELECT_POINT, screen=marine_xy[me])
+    return pick(marine.any(), pick(only_me, move, select), call(_NO_OP))
+
+
+def find_and_defeat_zerglings(key, obs, minimap_layers: dict[str, int]) -> DenseAction:
+    """Selects the army and attack-moves on the minimap: to the nearest visible enemy,
+    else to the nearest unexplored pathable cell, else (the map explored, zerglings
+    respawned out of sight) to the nearest pathable cell not in sight."""
+    del key
+    mm = obs["feature_minimap"]
+    relative = mm[minimap_layers["player_relative"]]
+    visibility = mm[minimap_layers["visibility_map"]]
+    pathable = mm[minimap_layers["pathable"]] > 0
+    h, w = relative.shape
+    ys, xs = jnp.mgrid[0:h, 0:w]
+    points = jnp.stack([xs, ys], -1).reshape(-1, 2)
+    own = (relative == PlayerRelative.SELF).reshape(-1)
+    centre = jnp.sum(points * own[:, None], 0) / jnp.maximum(jnp.sum(own), 1)
+    enemy = (relative == PlayerRelative.ENEMY).reshape(-1)
+    unexplored = ((visibility == Visibility.HIDDEN) & pathable).reshape(-1)
+    unseen = ((visibility != Visibility.VISIBLE) & pathable).reshape(-1)
+    goals = jnp.where(enemy.any(), enemy, jnp.where(unexplored.any(), unexplored, unseen))
+    goal, _ = _nearest(centre, points, goals)
+    attack = pick(goals.any(), call(_ATTACK_MINIMAP, minimap=points[goal]), call(_NO_OP))
+    army_selected = obs["single_select"][0, 0] + obs["multi_select"][0, 0] > 0
+    return pick(army_selected, attack, call(_SELECT_ARMY))
+
+
+def required_format(map_name: str) -> dict:
+    """The `ObservationFormat` settings a map's scripted agent needs (for `make`)."""
+    if map_name in ("MoveToBeacon", "CollectMineralShards"):
+        return {"use_feature_units": True}
+    return {}
+
+
+def scripted_policy(map_name: str, fmt: ObservationFormat) -> Policy:
+    """The scripted agent of a map, for observations of format `fmt`.
+
+    Raises:
+      ValueError: for a map without a scripted agent, or a format lacking what the
+        agent reads (feature units, or the minimap layers it uses).
+    """
+    if map_name in ("MoveToBeacon", "CollectMineralShards"):
+        if not fmt.use_feature_units:
+            raise ValueError(f"the {map_name} scripted agent reads feature_units; build the "
+                             f"environment with use_feature_units=True")
+        return move_to_beacon if map_name == "MoveToBeacon" else collect_mineral_shards
+    if map_name == "FindAndDefeatZerglings":
+        names = [f.name for f in fmt.minimap_layers]
+        needed = ("player_relative", "visibility_map", "pathable")
+        missing = [n for n in needed if n not in names]
+        if missing:
+            raise ValueError(f"the {map_name} scripted agent needs minimap layers {missing}; "
+                             f"the format has {names}")
+        index = {n: names.index(n) for n in needed}
+        return lambda key, obs: find_and_defeat_zerglings(key, obs, index)
+    raise ValueError(f"no scripted agent for map {map_name!r}; there are agents for "
+                     f"{list(SCRIPTED_MAPS)}")
+
+
+SCRIPTED_MAPS = ("MoveToBeacon", "CollectMineralShards", "FindAndDefeatZerglings")

@@ -1,0 +1,127 @@
+"""Evaluating a policy on the simulator: many episodes in one compiled program.
+
+A policy is a pure function `(key, observation) -> DenseAction` of one environment's
+padded observation; it is vmapped over `num_envs` environments that run one episode
+each inside a `lax.scan`, so a batch of episodes is a single jitted call.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import functools
+from collections.abc import Callable
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+
+from sc2jax.environment.agents import random_action, scripted_policy
+from sc2jax.environment.dense import DenseAction
+from sc2jax.environment.simulator import Simulator
+
+Policy = Callable[[jax.Array, dict], DenseAction]
+
+AGENTS = ("random", "scripted")
+
+
+def make_policy(agent: str, sim: Simulator) -> Policy:
+    """A policy without parameters by name: "random" (the paper's random policy) or
+    "scripted" (the map's scripted agent).
+
+    Raises:
+      ValueError: for an unknown agent, or a map or format the agent cannot play.
+    """
+    if agent == "random":
+        types = sim.fmt.types
+        return lambda key, obs: random_action(key, obs["available_actions"], types)
+    if agent == "scripted":
+        return scripted_policy(sim.map_name, sim.fmt)
+    raise ValueError(f"unknown agent {agent!r}; allowed: {list(AGENTS)}")
+
+
+def max_episode_steps(sim: Simulator) -> int:
+    """Agent steps in the longest possible episode (the map's timer)."""
+    return -(-sim.game.time_limit_loops // sim.step_mul)
+
+
+@dataclasses.dataclass(frozen=True)
+class EpisodeStats:
+    """Scores of finished episodes.
+
+    Attributes:
+      scores: float64[E] each episode's return (the sum of its rewards).
+      steps: int64[E] each episode's length in agent steps.
+    """
+
+    scores: np.ndarray
+    steps: np.ndarray
+
+    @property
+    def summary(self) -> dict:
+        s = self.scores
+        return {"episodes": int(s.size), "mean": float(s.mean()), "std": float(s.std()),
+                "max": float(s.max()), "min": float(s.min())}
+
+
+@functools.cache
+def _episode_batch(sim: Simulator, policy: Policy, num_envs: int):
+    """A jitted function key -> (returns float32[num_envs], lengths int32[num_envs])."""
+    length = max_episode_steps(sim)
+
+    def one_env(key):
+        reset_key, run_key = jax.random.split(key)
+        state, ts = sim.reset(reset_key)
+
+        def body(carry, key):
+            state, ts, done, score, steps = carry
+            state, ts = sim.step(state, policy(key, ts.observation))
+            score = score + jnp.where(done, 0.0, ts.reward)
+            steps = steps + jnp.where(done, 0, 1)
+            done = done | ts.last()
+            return (state, ts, done, score, steps), None
+
+        init = (state, ts, jnp.bool_(False), jnp.float32(0.0), jnp.int32(0))
+        (_, _, done, score, steps), _ = jax.lax.scan(
+            body, init, jax.random.split(run_key, length))
+        return score, steps, done
+
+    return jax.jit(jax.vmap(one_env))
+
+
+def run_episodes(sim: Simulator, policy: Policy, episodes: int, num_envs: int = 64,
+                 seed: int = 0, on_batch: Callable[[EpisodeStats], None] | None = None
+                 ) -> EpisodeStats:
+    """Runs `episodes` full episodes of `policy`, `num_envs` at a time.
+
+    Args:
+      sim: the simulator.
+      policy: (key, padded observation) -> unbatched DenseAction.
+      episodes: how many episodes (>= 1).
+      num_envs: environments per compiled batch (>= 1).
+      seed: RNG seed; the same seed gives the same episodes.
+      on_batch: called with the stats so far after each batch (progress reporting).
+
+    Returns:
+      The episodes' stats, in order.
+
+    Raises:
+      ValueError: for non-positive `episodes` or `num_envs`.
+    """
+    for name, value in (("episodes", episodes), ("num_envs", num_envs)):
+        if isinstance(value, bool) or not isinstance(value, int) or value < 1:
+            raise ValueError(f"{name} must be a positive int, got {value!r}")
+    num_envs = min(num_envs, episodes)
+    batch = _episode_batch(sim, policy, num_envs)
+    key = jax.random.PRNGKey(seed)
+    scores, steps = [], []
+    while sum(map(len, scores)) < episodes:
+        key, batch_key = jax.random.split(key)
+        score, length, done = jax.device_get(batch(jax.random.split(batch_key, num_envs)))
+        if not done.all():
+            raise RuntimeError(f"{int((~done).sum())} episodes did not end within "
+                               f"{max_episode_steps(sim)} steps")
+        scores.append(score.astype(np.float64))
+        steps.append(length.astype(np.int64))
+        if on_batch is not None:
+            on_batch(EpisodeStats(np.concatenate(scores), np.concatenate(steps)))
+    return EpisodeStats(np.concatenate(scores)[:episodes], np.concatenate(steps)[:episodes])
