@@ -1,0 +1,282 @@
+r"""Simulator throughput: environment steps per second with the paper's random policy.
+
+Every step renders the whole observation (all screen and minimap layers and every
+non-spatial observation) and the random agent (SC2LE §4.4) picks its next action from the
+last observation's `available_actions`. The measured program is one jitted function that
+`lax.scan`s K steps of (random action -> vmapped `Simulator.step`) for `num_envs`
+environments; compilation is excluded (a warm-up call), each call is timed to
+`block_until_ready`, and the median of the repeats is reported.
+
+Optionally (`--smax`), JaxMARL's SMAX (an optional, benchmark-only dependency:
+`pip install jaxmarl`) is measured the same way on its "3m" scenario, with random
+available actions for the three allied marines against its heuristic enemy.
+
+    python -m sc2jax.experiments.benchmark
+    python -m sc2jax.experiments.benchmark --maps=MoveToBeacon --num_envs=1,64 \
+        --output=docs/benchmarks.md
+"""
+
+from __future__ import annotations
+
+import datetime
+import os
+import platform
+import re
+import statistics
+import time
+from collections.abc import Callable, Sequence
+from typing import Any, NamedTuple
+
+import jax
+import jax.numpy as jnp
+from absl import app, flags, logging
+
+from sc2jax.environment import MAPS, ObservationFormat, Simulator
+from sc2jax.environment.agents.random_agent import random_action
+
+FLAGS = flags.FLAGS
+flags.DEFINE_list("maps", list(MAPS), "Mini-games to measure.")
+flags.DEFINE_list("num_envs", ["1", "64", "1024"], "Environment counts (one process each).")
+flags.DEFINE_integer("screen_size", 64, "Feature-screen resolution.")
+flags.DEFINE_integer("minimap_size", 64, "Feature-minimap resolution.")
+flags.DEFINE_integer("step_mul", 8, "Game loops per agent step.")
+flags.DEFINE_integer("steps", 0, "Agent steps per timed call (K); 0 picks "
+                     "max(16, min(2048, 8192 // num_envs)).")
+flags.DEFINE_integer("repeats", 3, "Timed calls per measurement (the median is reported).")
+flags.DEFINE_bool("smax", True, "Also measure JaxMARL's SMAX 3m (skipped if not installed).")
+flags.DEFINE_string("output", None, "Markdown file to write the results section into.")
+
+SECTION = "## Simulator throughput"
+SMAX_SCENARIO = "3m"
+
+
+class Result(NamedTuple):
+    """One measurement.
+
+    Attributes:
+      name: what was measured (a map name, or "SMAX-3m").
+      num_envs: environments stepped together.
+      steps: agent steps per environment per timed call.
+      seconds: the median wall time of one call.
+      step_mul: game loops per agent step.
+    """
+
+    name: str
+    num_envs: int
+    steps: int
+    seconds: float
+    step_mul: int
+
+    @property
+    def agent_steps_per_second(self) -> float:
+        return self.num_envs * self.steps / self.seconds
+
+    @property
+    def game_steps_per_second(self) -> float:
+        return self.agent_steps_per_second * self.step_mul
+
+
+def steps_per_call(num_envs: int, steps: int = 0) -> int:
+    """K, the agent steps of one timed call: `steps`, or ~8192 agent steps in all."""
+    return steps if steps > 0 else max(16, min(2048, 8192 // num_envs))
+
+
+def time_rollout(rollout: Callable, carry: Any, repeats: int) -> float:
+    """Median seconds of `rollout(carry) -> carry` after one untimed warm-up call.
+
+    Each call continues from the previous call's carry, so episodes run on (and reset)
+    as in training.
+    """
+    carry = jax.block_until_ready(rollout(carry))  # Compiles; not timed.
+    times = []
+    for _ in range(repeats):
+        start = time.perf_counter()
+        carry = jax.block_until_ready(rollout(carry))
+        times.append(time.perf_counter() - start)
+    return statistics.median(times)
+
+
+def sc2jax_rollout(sim: Simulator, num_envs: int, steps: int):
+    """Builds a compiled random-policy rollout of `num_envs` environments.
+
+    Returns:
+      (rollout, carry): `rollout(carry) -> carry` runs `steps` agent steps; the carry is
+      (states [B, ...], the last timesteps [B, ...] with their full observations, key).
+    """
+    types = sim.fmt.types
+    act = jax.vmap(random_action, in_axes=(0, 0, None))
+    step = jax.vmap(sim.step)
+
+    def one_step(carry, _):
+        state, timestep, key = carry
+        key, action_key = jax.random.split(key)
+        action = act(jax.random.split(action_key, num_envs),
+                     timestep.observation["available_actions"], types)
+        state, timestep = step(state, action)
+        return (state, timestep, key), None
+
+    @jax.jit
+    def rollout(carry):
+        return jax.lax.scan(one_step, carry, None, length=steps)[0]
+
+    key, reset_key = jax.random.split(jax.random.PRNGKey(0))
+    state, timestep = jax.jit(jax.vmap(sim.reset))(jax.random.split(reset_key, num_envs))
+    return rollout, (state, timestep, key)
+
+
+def measure_sc2jax(map_name: str, num_envs: int, fmt: ObservationFormat, step_mul: int,
+                   steps: int, repeats: int) -> Result:
+    """Measures one mini-game at one environment count."""
+    sim = Simulator(map_name=map_name, fmt=fmt, step_mul=step_mul)
+    rollout, carry = sc2jax_rollout(sim, num_envs, steps)
+    return Result(map_name, num_envs, steps, time_rollout(rollout, carry, repeats), step_mul)
+
+
+def smax_rollout(num_envs: int, steps: int, step_mul: int):
+    """Builds SMAX-3m's compiled random-policy rollout, as `sc2jax_rollout`.
+
+    Raises:
+      ImportError: jaxmarl is not installed.
+    """
+    from jaxmarl.environments.smax import HeuristicEnemySMAX, map_name_to_scenario
+
+    env = HeuristicEnemySMAX(scenario=map_name_to_scenario(SMAX_SCENARIO),
+                             world_steps_per_env_step=step_mul)
+    agents = env.agents
+
+    def act_one(key, state):
+        available = env.get_avail_actions(state)
+        keys = jax.random.split(key, len(agents))
+        return {a: jax.random.categorical(k, jnp.where(available[a], 0.0, -jnp.inf))
+                for k, a in zip(keys, agents)}
+
+    step = jax.vmap(env.step)
+
+    def one_step(carry, _):
+        state, obs, key = carry
+        key, action_key, step_key = jax.random.split(key, 3)
+        actions = jax.vmap(act_one)(jax.random.split(action_key, num_envs), state)
+        obs, state, _, _, _ = step(jax.random.split(step_key, num_envs), state, actions)
+        return (state, obs, key), None
+
+    @jax.jit
+    def rollout(carry):
+        return jax.lax.scan(one_step, carry, None, length=steps)[0]
+
+    key, reset_key = jax.random.split(jax.random.PRNGKey(0))
+    obs, state = jax.jit(jax.vmap(env.reset))(jax.random.split(reset_key, num_envs))
+    return rollout, (state, obs, key)
+
+
+def measure_smax(num_envs: int, step_mul: int, steps: int, repeats: int) -> Result:
+    rollout, carry = smax_rollout(num_envs, steps, step_mul)
+    return Result(f"SMAX-{SMAX_SCENARIO}", num_envs, steps,
+                  time_rollout(rollout, carry, repeats), step_mul)
+
+
+def machine() -> str:
+    """One line: cores, CPU model, load average, JAX backend."""
+    model = platform.processor() or "unknown CPU"
+    try:
+        with open("/proc/cpuinfo") as f:
+            found = re.search(r"model name\s*:\s*(.*)", f.read())
+        model = found.group(1).strip() if found else model
+    except OSError:
+        pass
+    load = ", ".join(f"{x:.2f}" for x in os.getloadavg())
+    return (f"{os.cpu_count()} cores, {model}; load average {load}; "
+            f"JAX {jax.__version__} on {jax.default_backend()} ({jax.devices()[0].device_kind})")
+
+
+def markdown(results: Sequence[Result], smax: dict[int, Result], command: str,
+             before: str, after: str, note: str) -> str:
+    """The results section, as markdown."""
+    lines = [SECTION, "", f"Command: `{command}`", "",
+             f"- Date: {datetime.datetime.now().strftime('%Y-%m-%d %H:%M')}",
+             f"- Machine before the run: {before}",
+             f"- Load after the run: {after}", ""]
+    header = "| Map | Envs | K | Agent steps/s | Game steps/s |"
+    rule = "|---|---:|---:|---:|---:|"
+    if smax:
+        header += " × SMAX-3m |"
+        rule += "---:|"
+    lines += [header, rule]
+    for r in list(results) + list(smax.values()):
+        row = (f"| {r.name} | {r.num_envs} | {r.steps} | {r.agent_steps_per_second:,.0f} | "
+               f"{r.game_steps_per_second:,.0f} |")
+        if smax:
+            base = smax.get(r.num_envs)
+            ratio = r.agent_steps_per_second / base.agent_steps_per_second if base else None
+            row += f" {ratio:.2f} |" if ratio is not None else " – |"
+        lines.append(row)
+    if note:
+        lines += ["", note]
+    return "\n".join(lines) + "\n"
+
+
+def write_section(path: str, section: str) -> None:
+    """Replaces (or appends) `SECTION` in a markdown file, keeping every other section.
+
+    The section runs from its heading to the next `## ` heading. Subsections (`### `)
+    under it that this script does not write are kept after the new table.
+    """
+    text = open(path).read() if os.path.exists(path) else "# Benchmarks\n"
+    start = text.find(SECTION)
+    if start < 0:
+        text = text.rstrip("\n") + "\n\n" + section
+    else:
+        end = text.find("\n## ", start + len(SECTION))
+        end = len(text) if end < 0 else end + 1
+        old = text[start:end]
+        kept = old.find("\n### ")
+        tail = old[kept + 1:] if kept >= 0 else ""
+        text = text[:start] + section + ("\n" + tail if tail else "") + text[end:]
+        text = text.rstrip("\n") + "\n"
+    with open(path, "w") as f:
+        f.write(text)
+
+
+def main(argv: Sequence[str]) -> None:
+    del argv
+    for name in FLAGS.maps:
+        if name not in MAPS:
+            raise ValueError(f"unknown map {name!r}; the simulator has {sorted(MAPS)}")
+    counts = [int(n) for n in FLAGS.num_envs]
+    fmt = ObservationFormat(screen_size=FLAGS.screen_size, minimap_size=FLAGS.minimap_size)
+    before = machine()
+    logging.info("Machine: %s", before)
+    results = []
+    for name in FLAGS.maps:
+        for n in counts:
+            r = measure_sc2jax(name, n, fmt, FLAGS.step_mul, steps_per_call(n, FLAGS.steps),
+                               FLAGS.repeats)
+            logging.info("%s x%d: %.0f agent steps/s, %.0f game steps/s", name, n,
+                         r.agent_steps_per_second, r.game_steps_per_second)
+            results.append(r)
+    smax, note = {}, ""
+    if FLAGS.smax:
+        try:
+            import jaxmarl  # noqa: F401
+        except ImportError as e:
+            note = f"SMAX skipped: jaxmarl is not installed ({e}); `pip install jaxmarl`."
+            logging.warning(note)
+        else:
+            for n in counts:
+                r = measure_smax(n, FLAGS.step_mul, steps_per_call(n, FLAGS.steps),
+                                 FLAGS.repeats)
+                logging.info("SMAX-3m x%d: %.0f agent steps/s", n, r.agent_steps_per_second)
+                smax[n] = r
+    command = "python -m sc2jax.experiments.benchmark " + " ".join(
+        f"--{k}={v}" for k, v in (
+            ("maps", ",".join(FLAGS.maps)), ("num_envs", ",".join(FLAGS.num_envs)),
+            ("screen_size", FLAGS.screen_size), ("minimap_size", FLAGS.minimap_size),
+            ("step_mul", FLAGS.step_mul), ("steps", FLAGS.steps), ("repeats", FLAGS.repeats),
+            ("smax", FLAGS.smax)))
+    section = markdown(results, smax, command, before, machine(), note)
+    print(section)
+    if FLAGS.output:
+        write_section(FLAGS.output, section)
+
+
+if __name__ == "__main__":
+    app.run(main)
