@@ -1,0 +1,150 @@
+"""acme-style factory: a network and hyper-parameters -> `(params, batch) -> (loss, metrics)`.
+
+The batch is a `Trajectory` of T steps for B environments (time-major). The network
+runs on all T+1 observations; the last one only gives the bootstrap value v(s_T).
+The per-trajectory loss (`a3c_loss` or `vtrace_loss`) is vmapped over B and averaged.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Mapping
+from typing import Any, NamedTuple
+
+import flax.linen as nn
+import jax
+import jax.numpy as jnp
+
+from sc2jax.environment.dense import DenseAction
+from sc2jax.losses.actor_critic import a3c_loss, vtrace_loss
+from sc2jax.networks import policy
+from sc2jax.networks.ar_fully_conv import ARFullyConv
+from sc2jax.networks.fully_conv_lstm import FullyConvLSTM, LSTMCarry
+from sc2jax.networks.outputs import NetworkOutput
+
+LossFn = Callable[[Any, "Trajectory"], tuple[jax.Array, dict[str, jax.Array]]]
+OFF_POLICY_CORRECTIONS = ("none", "vtrace")
+
+
+class Trajectory(NamedTuple):
+    """T steps of B environments, time-major.
+
+    Attributes:
+      observation: padded observations, leaves [T+1, B, ...] (s_0 .. s_T).
+      action: `DenseAction` [T, B] taken at s_0 .. s_{T-1}.
+      reward: [T, B] float32 reward after each action.
+      discount: [T, B] float32, γ, or 0 where the episode terminated.
+      first: [T+1, B] bool, True where an observation starts an episode (resets the
+        FullyConv LSTM carry; the return never bootstraps across it).
+      behaviour_log_prob: [T, B] log μ(a_t|s_t) of the acting policy (V-trace only).
+      initial_carry: the FullyConv LSTM carry before s_0 (recurrent networks only).
+    """
+
+    observation: Mapping[str, jax.Array]
+    action: DenseAction
+    reward: jax.Array
+    discount: jax.Array
+    first: jax.Array
+    behaviour_log_prob: jax.Array | None = None
+    initial_carry: LSTMCarry | None = None
+
+
+def unroll(network: nn.Module, params: Any, observation: Mapping[str, jax.Array],
+           action: DenseAction | None = None, first: jax.Array | None = None,
+           initial_carry: LSTMCarry | None = None) -> NetworkOutput:
+    """Runs any network over time-major inputs [N, B, ...].
+
+    Args:
+      network: one of the four networks.
+      params: its parameters.
+      observation: leaves [N, B, ...].
+      action: `DenseAction` [N, B] for arFullyConv's teacher forcing (None: no_op).
+      first: [N, B] episode starts (FullyConv LSTM).
+      initial_carry: FullyConv LSTM carry before the first step.
+
+    Returns:
+      `NetworkOutput` with leading dims [N, B].
+    """
+    n, b = jnp.shape(observation["available_actions"])[:2]
+    if isinstance(network, FullyConvLSTM):
+        if first is None or initial_carry is None:
+            raise ValueError("FullyConvLSTM needs `first` and `initial_carry`")
+        return network.apply(params, initial_carry, observation, first)[1]
+    flat = jax.tree.map(lambda x: jnp.reshape(x, (n * b,) + jnp.shape(x)[2:]), dict(observation))
+    if isinstance(network, ARFullyConv) and action is not None:
+        action = jax.tree.map(lambda x: jnp.reshape(x, (n * b,) + jnp.shape(x)[2:]), action)
+        out = network.apply(params, flat, action)
+    else:
+        out = network.apply(params, flat)
+    return jax.tree.map(lambda x: jnp.reshape(x, (n, b) + x.shape[1:]), out)
+
+
+def make_actor_critic_loss(network: nn.Module, *, value_weight: float = 0.5,
+                           entropy_weight: float = 1e-3,
+                           argument_entropy_weight: float | None = None,
+                           off_policy_correction: str = "none", vtrace_lambda: float = 1.0,
+                           clip_rho_threshold: float = 1.0,
+                           clip_pg_rho_threshold: float = 1.0) -> LossFn:
+    """Builds the A3C (or V-trace) loss of a network.
+
+    Args:
+      network: one of the four networks.
+      value_weight: β.
+      entropy_weight: η for the function id (1e-3, the paper's).
+      argument_entropy_weight: η per argument (default: `entropy_weight`).
+      off_policy_correction: "none" (A3C n-step returns) or "vtrace".
+      vtrace_lambda, clip_rho_threshold, clip_pg_rho_threshold: V-trace settings.
+
+    Returns:
+      `loss_fn(params, trajectory) -> (loss, metrics)`, jittable and differentiable.
+
+    Raises:
+      ValueError: for an unknown `off_policy_correction`.
+    """
+    if off_policy_correction not in OFF_POLICY_CORRECTIONS:
+        raise ValueError(f"unknown off_policy_correction {off_policy_correction!r}; "
+                         f"allowed: {list(OFF_POLICY_CORRECTIONS)}")
+    weights = dict(value_weight=value_weight, entropy_weight=entropy_weight,
+                   argument_entropy_weight=argument_entropy_weight)
+
+    def loss_fn(params: Any, batch: Trajectory) -> tuple[jax.Array, dict[str, jax.Array]]:
+        t = jnp.shape(batch.reward)[0]
+        action = jax.tree.map(lambda x: jnp.concatenate([x, jnp.zeros_like(x[:1])]),
+                              batch.action)  # a dummy action at s_T (unused)
+        out = unroll(network, params, batch.observation, action, batch.first,
+                     batch.initial_carry)
+        out_tm1 = jax.tree.map(lambda x: x[:t], out)
+        available = batch.observation["available_actions"][:t]
+        log_pi = policy.log_prob(out_tm1, batch.action, available).total
+        ent = policy.entropy(out_tm1, available)
+        arg_entropy = jnp.stack(ent.arguments, axis=-1)
+        used = policy.used_arguments(batch.action.function)
+        # Never bootstrap across an episode start (termination or truncation).
+        discount = batch.discount * (1.0 - batch.first[1:].astype(batch.discount.dtype))
+        if off_policy_correction == "vtrace":
+            if batch.behaviour_log_prob is None:
+                raise ValueError("V-trace needs trajectory.behaviour_log_prob")
+            per_env = jax.vmap(lambda *a: vtrace_loss(
+                *a, **weights, lambda_=vtrace_lambda, clip_rho_threshold=clip_rho_threshold,
+                clip_pg_rho_threshold=clip_pg_rho_threshold), in_axes=(1, 1, 1, 1, 1, 0, 1, 1, 1))
+            res = per_env(out.value[:t], log_pi, batch.behaviour_log_prob, batch.reward,
+                          discount, out.value[t], ent.function, arg_entropy, used)
+        else:
+            per_env = jax.vmap(lambda *a: a3c_loss(*a, **weights),
+                               in_axes=(1, 1, 1, 1, 0, 1, 1, 1))
+            res = per_env(out.value[:t], log_pi, batch.reward, discount, out.value[t],
+                          ent.function, arg_entropy, used)
+        loss = jnp.mean(res.loss)
+        metrics = {
+            "loss": loss,
+            "policy_loss": jnp.mean(res.policy_loss),
+            "value_loss": jnp.mean(res.value_loss),
+            "entropy_loss": jnp.mean(res.entropy_loss),
+            "function_entropy": jnp.mean(ent.function),
+            "advantage": jnp.mean(res.advantage),
+            "value": jnp.mean(out.value[:t]),
+            "value_target": jnp.mean(res.value_target),
+            "log_prob": jnp.mean(log_pi),
+        }
+        return loss, metrics
+
+    return loss_fn
