@@ -152,9 +152,12 @@ def game_loop(units: Units, key, playable, geometry_pathable=None) -> tuple[Unit
     turns = jnp.sum(face_vec * face_vec, axis=-1) > 1e-10
     facing = jnp.where(turns, jnp.arctan2(face_vec[:, 1], face_vec[:, 0]), units.facing)
 
-    # Attacks: instant hits, combined with scatter-add.
-    cooldown = units.cooldown - 1.0
-    fires = in_range & (cooldown <= 0.0) & alive
+    # Attacks: instant hits, combined with scatter-add. `cooldown` is the loops left
+    # before the weapon is ready at the start of this loop; a weapon fires once that is
+    # <= 0, keeps the fraction of a loop it was late by (in (-1, 0]), and then waits
+    # its cooldown plus a jitter of -1..+2 loops. A ready weapon that does not fire
+    # gains no credit.
+    fires = in_range & (units.cooldown <= 0.0) & alive
     tdata_attr = data.attributes[safe_target]
     light = (tdata_attr & Attribute.LIGHT) > 0
     per_hit = jnp.maximum(data.damage + jnp.where(light, data.bonus_light, 0.0)
@@ -162,7 +165,9 @@ def game_loop(units: Units, key, playable, geometry_pathable=None) -> tuple[Unit
     hits = jnp.where(fires, per_hit, 0.0)
     damage = jnp.zeros(n, jnp.float32).at[safe_target].add(hits)
     jitter = jax.random.randint(key, (n,), -1, 3).astype(jnp.float32)
-    cooldown = jnp.where(fires, cooldown + data.cooldown + jitter, jnp.maximum(cooldown, 0.0))
+    ready = units.cooldown <= 0.0
+    cooldown = jnp.where(fires, units.cooldown + data.cooldown + jitter - 1.0,
+                         jnp.where(ready, 0.0, units.cooldown - 1.0))
 
     # A unit hit while idle turns on (one of) its attackers.
     attacker = jnp.full(n, -1, jnp.int32).at[safe_target].max(jnp.where(fires, rows, -1))
