@@ -33,6 +33,7 @@ from sc2jax.networks.outputs import ArgumentLogits, NetworkOutput
 from sc2jax.networks.policy import (
     argument_sample,
     choose,
+    gumbel_noise,
     mask_function_logits,
     used_arguments,
     zero_unused,
@@ -85,12 +86,12 @@ class ARFullyConv(nn.Module):
             return ex(value[..., 0]) + ey(value[..., 1])
         return self.arg_embeds[i](value)
 
-    def _arguments(self, state, h, function, given, key, temperature):
-        """Runs the argument heads in order; samples where `given` is None."""
+    def _arguments(self, state, h, function, given, noise, temperature):
+        """Runs the argument heads in order; samples (with `noise`) where `given` is None."""
         used = used_arguments(function)
         cond = self.function_embed(function)
         proj = self.spatial_proj(state)
-        keys = [None] * 13 if key is None else list(jax.random.split(key, 13))
+        noise = [None] * 13 if noise is None else noise
         logits, values = [], []
         for i, size in enumerate(self.spec.argument_sizes):
             if len(size) == 2:
@@ -99,7 +100,7 @@ class ARFullyConv(nn.Module):
             else:
                 lg = self.arg_heads[i](nn.relu(h + self.arg_conds[i](cond)))
             if given is None:
-                value = zero_unused(argument_sample(keys[i], lg, temperature), used[:, i])
+                value = zero_unused(argument_sample(noise[i], lg, temperature), used[:, i])
             else:
                 value = jnp.asarray(given.arguments[i]).astype(jnp.int32)
             cond = cond + jnp.where(used[:, i:i + 1], self._embed(i, value), 0.0)
@@ -148,8 +149,13 @@ class ARFullyConv(nn.Module):
           `policy.log_prob(output, action, ...)` is the behaviour log-probability).
         """
         state, h, value, function_logits = self._body(obs)
-        k0, k1 = (None, None) if key is None else jax.random.split(key)
+        noise = [None] * 14
+        if key is not None:  # one draw for every head (see `policy.gumbel_noise`)
+            sizes = ((self.spec.num_functions,),) + tuple(
+                (s[0] * s[1],) if len(s) == 2 else s for s in self.spec.argument_sizes)
+            noise = gumbel_noise(key, function_logits.shape[:-1], sizes)
         masked = mask_function_logits(function_logits, jnp.asarray(obs["available_actions"]))
-        function = choose(k0, masked, temperature)
-        args, values = self._arguments(state, h, function, None, k1, temperature)
+        function = choose(None if key is None else noise[0][0], masked, temperature)
+        args, values = self._arguments(state, h, function, None,
+                                       None if key is None else noise[1:], temperature)
         return DenseAction(function, *values), NetworkOutput(value, function_logits, args)

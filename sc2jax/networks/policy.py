@@ -21,6 +21,7 @@ from typing import Any, NamedTuple
 
 import jax
 import jax.numpy as jnp
+import numpy as np
 
 from sc2jax.environment.dense import DenseAction
 from sc2jax.environment.functions import FUNCTION_ARGS_MASK
@@ -115,28 +116,68 @@ def argument_entropy(logits: Any) -> jax.Array:
     return _categorical_entropy(logits)
 
 
-def choose(key: jax.Array | None, logits: jax.Array,
+def noise_sizes(logits: Any) -> tuple[int, ...]:
+    """The categorical sizes inside one head's logits: (H*W,), (X, Y) or (n,)."""
+    if isinstance(logits, PixelLogits):
+        return (logits.logits.shape[-1],)
+    if isinstance(logits, XYLogits):
+        return (logits.x.shape[-1], logits.y.shape[-1])
+    return (jnp.shape(logits)[-1],)
+
+
+def gumbel_noise(key: jax.Array, batch_shape: tuple[int, ...],
+                 sizes: tuple[tuple[int, ...], ...]) -> list[list[jax.Array]]:
+    """Gumbel(0, 1) noise for several categorical heads, drawn in one RNG call.
+
+    One draw (instead of one per head) keeps the compiled program small: XLA compiles
+    each random-number call separately, which is slow on CPU.
+
+    Args:
+      key: a PRNG key.
+      batch_shape: [B...].
+      sizes: per head, the sizes from `noise_sizes`.
+
+    Returns:
+      Per head, a list of [B..., n] noise arrays.
+    """
+    flat = [n for head in sizes for n in head]
+    g = jax.random.gumbel(key, tuple(batch_shape) + (sum(flat),))
+    pieces = jnp.split(g, np.cumsum(flat)[:-1].tolist(), axis=-1)
+    out, i = [], 0
+    for head in sizes:
+        out.append(pieces[i:i + len(head)])
+        i += len(head)
+    return out
+
+
+def choose(noise: jax.Array | None, logits: jax.Array,
            temperature: float | jax.Array = 1.0) -> jax.Array:
-    """Samples an index from [B..., n] logits at a temperature; argmax if `key` is None."""
-    if key is None:
+    """Samples from [B..., n] logits at a temperature by the Gumbel-max trick,
+    argmax(logits / temperature + noise); the argmax if `noise` is None."""
+    if noise is None:
         return jnp.argmax(logits, axis=-1).astype(jnp.int32)
-    return jax.random.categorical(key, logits / temperature, axis=-1).astype(jnp.int32)
+    return jnp.argmax(logits / temperature + noise, axis=-1).astype(jnp.int32)
 
 
-def argument_sample(key: jax.Array | None, logits: Any,
+def argument_sample(noise: list[jax.Array] | None, logits: Any,
                     temperature: float | jax.Array = 1.0) -> jax.Array:
-    """Samples one argument (the mode if `key` is None).
+    """Samples one argument (the mode if `noise` is None).
+
+    Args:
+      noise: Gumbel noise from `gumbel_noise` for this head, or None.
+      logits: [B..., n], `PixelLogits` or `XYLogits`.
+      temperature: softmax temperature.
 
     Returns:
       [B...] int32 for a scalar argument, [B..., 2] (x, y) int32 for a point.
     """
+    noise = [None, None] if noise is None else noise
     if isinstance(logits, PixelLogits):
-        return logits.to_xy(choose(key, logits.logits, temperature))
+        return logits.to_xy(choose(noise[0], logits.logits, temperature))
     if isinstance(logits, XYLogits):
-        kx, ky = (None, None) if key is None else jax.random.split(key)
-        return jnp.stack([choose(kx, logits.x, temperature),
-                          choose(ky, logits.y, temperature)], axis=-1)
-    return choose(key, logits, temperature)
+        return jnp.stack([choose(noise[0], logits.x, temperature),
+                          choose(noise[1], logits.y, temperature)], axis=-1)
+    return choose(noise[0], logits, temperature)
 
 
 def zero_unused(value: jax.Array, used: jax.Array) -> jax.Array:
@@ -160,12 +201,14 @@ def sample(key: jax.Array | None, output: NetworkOutput, available_actions: jax.
     """
     if isinstance(temperature, (int, float)) and temperature <= 0:
         raise ValueError(f"temperature must be > 0, got {temperature}; use mode() for greedy")
-    keys = [None] * 14 if key is None else list(jax.random.split(key, 14))
     logits = mask_function_logits(output.function_logits, available_actions)
-    function = choose(keys[0], logits, temperature)
+    heads = (logits,) + tuple(output.argument_logits)
+    noise = [None] * len(heads) if key is None else gumbel_noise(
+        key, logits.shape[:-1], tuple(noise_sizes(h) for h in heads))
+    function = choose(None if key is None else noise[0][0], logits, temperature)
     used = used_arguments(function)
-    args = [zero_unused(argument_sample(k, lg, temperature), used[..., i])
-            for i, (k, lg) in enumerate(zip(keys[1:], output.argument_logits))]
+    args = [zero_unused(argument_sample(n, lg, temperature), used[..., i])
+            for i, (n, lg) in enumerate(zip(noise[1:], output.argument_logits))]
     return DenseAction(function, *args)
 
 

@@ -57,7 +57,8 @@ def test_wrong_observation_shape_names_the_key():
     params = network("atari")[1]
     obs = random_obs(1)
     bad = dict(obs, feature_screen=obs["feature_screen"][:, :2])
-    with pytest.raises(ValueError, match=r"feature_screen'\] has shape \(2, 2, 16, 16\); expected \[B, 3, 16, 16\]"):
+    expected = r"feature_screen'\] has shape \(2, 2, 16, 16\); expected \[B, 3, 16, 16\]"
+    with pytest.raises(ValueError, match=expected):
         apply(params, bad)
     unbatched = dict(obs, player=obs["player"][0])
     with pytest.raises(ValueError, match="player"):
