@@ -17,6 +17,8 @@ world units, so the world point at the centre of pixel (px, py) is
 centres so that clicks and unit lists land on known pixels.
 """
 
+import functools
+
 import dm_env
 import jax
 import jax.numpy as jnp
@@ -26,23 +28,35 @@ import pytest
 from sc2jax.environment import FUNCTIONS, ActionResult, FeatureUnit, make, to_dense
 from sc2jax.environment.dynamics import LoopEvents, game_loop
 from sc2jax.environment.minigames import get_map
-from sc2jax.environment.minigames.base import place
+from sc2jax.environment.minigames.base import DEFAULT_FACING
 from sc2jax.environment.state import Order, Owner, Units
-from sc2jax.environment.units import UnitType
+from sc2jax.environment.units import UNIT_DATA, UnitType
 
 from .conftest import PARAMS, SMALL_MAKE, compiled, small_sim
 
+# Every stepped scene is on FindAndDefeatZerglings (28 slots, free camera), so the file
+# compiles one map's step (shared with the other test files). The other two maps' scripts
+# are pure functions of the state, tested directly.
+MAP = "FindAndDefeatZerglings"
 BEACON_MAP = "MoveToBeacon"
 SHARDS_MAP = "CollectMineralShards"
-ZERGLINGS_MAP = "FindAndDefeatZerglings"
 
 MARINE_ID, ZERGLING_ID, SCV_ID = 48, 105, 45  # StarCraft II unit ids.
 SPEED = 2.25 / 16  # Marine, world units per loop.
 MARINE_CARD = {0, 1, 2, 3, 4, 7, 12, 13, 274, 331, 332, 333, 334, 451, 452, 453}
 UI_ONLY = {0, 1, 2, 3, 4, 7}  # No selection, but an army exists (select_army).
+CAM = (32.0, 25.0)  # The map's camera.
+FAR = (52.0, 42.0)  # A zergling on hold here keeps the map from respawning zerglings.
 
-# One game loop, jitted once for the whole module (the zergling map's 28 slots).
+# One game loop, jitted once for the whole module (the map's 28 slots).
 _GAME_LOOP = jax.jit(game_loop, static_argnums=2)
+
+
+@functools.cache
+def script(map_name):
+    """A map's script, with its `on_loop` and `on_step` jitted once."""
+    game = get_map(map_name)
+    return game, jax.jit(game.on_loop), jax.jit(game.on_step)
 
 
 def pixel_centre(camera, px, py):
@@ -50,53 +64,61 @@ def pixel_centre(camera, px, py):
     return (camera[0] + (px + 0.5 - 16) * 0.75, camera[1] - (py + 0.5 - 16) * 0.75)
 
 
-def scene(map_name, units_spec, camera=None, seed=0):
-    """A reset state of `map_name` holding only the given units.
+@functools.cache
+def _template():
+    """A reset state of the map (compiled once), to replace the units of."""
+    reset, _ = compiled(small_sim(MAP))
+    return reset(jax.random.PRNGKey(0), PARAMS)[0]
+
+
+def make_units(num_slots, units_spec):
+    """Units at full health, idle, facing the default way; built in numpy so that no
+    test compiles scatter ops for it."""
+    units = jax.tree_util.tree_map(np.array, jax.device_get(Units.empty(num_slots)))
+    for slot, unit_type, owner, xy, selected in units_spec:
+        units.alive[slot], units.type[slot], units.owner[slot] = True, unit_type, owner
+        units.tag[slot], units.pos[slot], units.selected[slot] = slot, xy, selected
+        units.health[slot] = UNIT_DATA.max_health[unit_type]
+        units.facing[slot] = DEFAULT_FACING
+    return jax.tree_util.tree_map(jnp.asarray, units)
+
+
+def scene(units_spec, camera=CAM):
+    """A state of the map holding only the given units, and the shared compiled step.
 
     Args:
       units_spec: (slot, UnitType, Owner, (x, y), selected) per unit.
-      camera: the camera centre, or None for the map's.
+      camera: the camera centre.
 
     Returns:
-      (step, state): the shared compiled step and the state.
+      (step, state).
     """
-    sim = small_sim(map_name)
-    reset, step = compiled(sim)
-    state, _ = reset(jax.random.PRNGKey(seed), PARAMS)
-    units = Units.empty(sim.game.num_slots)
-    for slot, unit_type, owner, xy, selected in units_spec:
-        units, _ = place(units, jnp.array([slot]), unit_type, owner,
-                         jnp.array([xy], jnp.float32), slot, selected)
-    state = state.replace(units=units)
-    if camera is not None:
-        state = state.replace(camera=jnp.array(camera, jnp.float32))
-    return step, state
+    state = _template().replace(units=make_units(small_sim(MAP).game.num_slots, units_spec),
+                                camera=jnp.array(camera, jnp.float32))
+    return compiled(small_sim(MAP))[1], state
 
 
 def set_unit(state, slot, **fields):
     """Sets per-unit fields of one slot (health=..., order=(Order, (x, y)))."""
-    units = state.units
+    units = jax.tree_util.tree_map(np.array, jax.device_get(state.units))
     for name, value in fields.items():
         if name == "order":
-            order, point = value
-            units = units.replace(orders=units.orders.at[slot, 0].set(order),
-                                  order_pos=units.order_pos.at[slot, 0].set(point))
+            units.orders[slot, 0], units.order_pos[slot, 0] = value
         else:
-            units = units.replace(**{name: getattr(units, name).at[slot].set(value)})
-    return state.replace(units=units)
+            getattr(units, name)[slot] = value
+    return state.replace(units=jax.tree_util.tree_map(jnp.asarray, units))
 
 
-def act(step, state, call, map_name):
+def act(step, state, call):
     """One agent step with a FunctionCall; returns (state, numpy timestep)."""
-    action = to_dense(call, small_sim(map_name).fmt.types)
-    state, ts = step(state, action, PARAMS)
+    state, ts = step(state, to_dense(call, small_sim(MAP).fmt.types), PARAMS)
     return state, jax.device_get(ts)
 
 
-def no_op(step, state, map_name, steps=1):
+def no_op(step, state, steps=1):
     ts = None
     for _ in range(steps):
-        state, ts = act(step, state, FUNCTIONS.no_op(), map_name)
+        state, ts = act(step, state, FUNCTIONS.no_op())
     return state, ts
 
 
@@ -121,30 +143,29 @@ def available(ts):
 
 # Movement and orders -----------------------------------------------------------------
 
-# MoveToBeacon's camera is (33, 25). Pixel (20, 11) is world (36.375, 28.375); the marine
-# starts 5 to its left at (31.375, 28.375). The beacon sits far away at (24, 22).
-CAM_B = (33.0, 25.0)
-GOAL = pixel_centre(CAM_B, 20, 11)
+# Pixel (20, 11) is world (35.375, 28.375); the marine starts 5 to its left at
+# (30.375, 28.375).
+GOAL = pixel_centre(CAM, 20, 11)
 START = (GOAL[0] - 5.0, GOAL[1])
-FAR_BEACON = (24.0, 22.0)
 
 
-def beacon_scene(marine_xy=START, beacon_xy=FAR_BEACON):
-    return scene(BEACON_MAP, [
+def move_scene(marine_xy=START):
+    step, state = scene([
         (0, UnitType.MARINE, Owner.SELF, marine_xy, True),
-        (1, UnitType.BEACON, Owner.NEUTRAL, beacon_xy, False),
+        (4, UnitType.ZERGLING, Owner.ENEMY, FAR, False),
     ])
+    return step, set_unit(state, 4, order=(Order.HOLD, FAR))
 
 
 def test_pixel_centre_is_pysc2s_transform():
-    # pixel = (world - camera) * 32/24 + 16: (36.375 - 33) * 4/3 + 16 = 20.5, and
+    # pixel = (world - camera) * 32/24 + 16: (35.375 - 32) * 4/3 + 16 = 20.5, and
     # (25 - 28.375) * 4/3 + 16 = 11.5, y flipped.
-    assert GOAL == (36.375, 28.375)
+    assert GOAL == (35.375, 28.375)
 
 
 def test_marine_moves_at_its_speed_and_the_order_finishes():
-    step, state = beacon_scene()
-    state, ts = act(step, state, FUNCTIONS.Move_screen("now", (20, 11)), BEACON_MAP)
+    step, state = move_scene()
+    state, ts = act(step, state, FUNCTIONS.Move_screen("now", (20, 11)))
     # One step of 8 loops: 8 * 0.140625 = 1.125 along +x.
     np.testing.assert_allclose(pos(state, 0), (START[0] + 1.125, START[1]), atol=1e-5)
     assert int(state.units.orders[0, 0]) == Order.MOVE
@@ -152,115 +173,113 @@ def test_marine_moves_at_its_speed_and_the_order_finishes():
     assert int(ts.observation["action_result"][0]) == 0  # Success is not an error.
     assert ts.observation["feature_units"][0][FeatureUnit.order_length] == 1
     # 4 steps = 32 loops = 4.5: still 0.5 short, still moving.
-    state, ts = no_op(step, state, BEACON_MAP, 3)
+    state, ts = no_op(step, state, 3)
     np.testing.assert_allclose(pos(state, 0), (START[0] + 4.5, START[1]), atol=1e-5)
     assert int(state.units.orders[0, 0]) == Order.MOVE
     # 5 / 0.140625 = 35.6: it arrives on loop 36 (within step 5) and the order ends.
-    state, ts = no_op(step, state, BEACON_MAP)
+    state, ts = no_op(step, state)
     np.testing.assert_allclose(pos(state, 0), GOAL, atol=1e-5)
     assert int(state.units.orders[0, 0]) == Order.NONE
     fu = ts.observation["feature_units"][0]
     fields = [FeatureUnit.unit_type, FeatureUnit.x, FeatureUnit.y, FeatureUnit.order_length]
     assert fu[fields].tolist() == [MARINE_ID, 20, 11, 0]
     # Idle: it stays.
-    state, _ = no_op(step, state, BEACON_MAP)
+    state, _ = no_op(step, state)
     np.testing.assert_allclose(pos(state, 0), GOAL, atol=1e-5)
 
 
 def test_queued_move_runs_after_the_first():
-    step, state = beacon_scene()
-    # A: pixel (17, 11) = (34.125, 28.375), 2.75 right of the start. B: pixel (17, 7) =
-    # (34.125, 31.375), 3 above A.
-    a, b = pixel_centre(CAM_B, 17, 11), pixel_centre(CAM_B, 17, 7)
-    state, _ = act(step, state, FUNCTIONS.Move_screen("now", (17, 11)), BEACON_MAP)
-    state, _ = act(step, state, FUNCTIONS.Move_screen("queued", (17, 7)), BEACON_MAP)
+    step, state = move_scene()
+    # A: pixel (17, 11) = (33.125, 28.375), 2.75 right of the start. B: pixel (17, 7) =
+    # (33.125, 31.375), 3 above A.
+    a, b = pixel_centre(CAM, 17, 11), pixel_centre(CAM, 17, 7)
+    state, _ = act(step, state, FUNCTIONS.Move_screen("now", (17, 11)))
+    state, _ = act(step, state, FUNCTIONS.Move_screen("queued", (17, 7)))
     # 16 loops: 16 * 0.140625 = 2.25 towards A; B waits in the queue.
     np.testing.assert_allclose(pos(state, 0), (START[0] + 2.25, START[1]), atol=1e-5)
     assert list(np.asarray(state.units.orders[0, :2])) == [Order.MOVE, Order.MOVE]
     np.testing.assert_allclose(state.units.order_pos[0, 1], b, atol=1e-5)
     # A is reached on loop ceil(2.75 / 0.140625) = 20; loops 21-24 go 4 * 0.140625 =
     # 0.5625 up towards B.
-    state, _ = no_op(step, state, BEACON_MAP)
+    state, _ = no_op(step, state)
     np.testing.assert_allclose(pos(state, 0), (a[0], a[1] + 0.5625), atol=1e-5)
     assert list(np.asarray(state.units.orders[0, :2])) == [Order.MOVE, Order.NONE]
     # B is 3 from A: 22 more loops (3 / 0.140625 = 21.3), done by loop 42 < 48.
-    state, _ = no_op(step, state, BEACON_MAP, 3)
+    state, _ = no_op(step, state, 3)
     np.testing.assert_allclose(pos(state, 0), b, atol=1e-5)
     assert int(state.units.orders[0, 0]) == Order.NONE
 
 
 def test_queued_command_on_an_idle_unit_starts_at_once():
-    step, state = beacon_scene()
-    state, _ = act(step, state, FUNCTIONS.Move_screen("queued", (20, 11)), BEACON_MAP)
+    step, state = move_scene()
+    state, _ = act(step, state, FUNCTIONS.Move_screen("queued", (20, 11)))
     np.testing.assert_allclose(pos(state, 0), (START[0] + 1.125, START[1]), atol=1e-5)
 
 
 def test_stop_clears_orders_and_the_unit_stays():
-    step, state = beacon_scene()
-    state, _ = act(step, state, FUNCTIONS.Move_screen("now", (20, 11)), BEACON_MAP)
-    state, _ = act(step, state, FUNCTIONS.Move_screen("queued", (17, 7)), BEACON_MAP)
-    state, ts = act(step, state, FUNCTIONS.Stop_quick("now"), BEACON_MAP)
+    step, state = move_scene()
+    state, _ = act(step, state, FUNCTIONS.Move_screen("now", (20, 11)))
+    state, _ = act(step, state, FUNCTIONS.Move_screen("queued", (17, 7)))
+    state, ts = act(step, state, FUNCTIONS.Stop_quick("now"))
     # Stop acts before the step's loops: the marine stays where 16 loops took it.
     np.testing.assert_allclose(pos(state, 0), (START[0] + 2.25, START[1]), atol=1e-5)
     assert list(np.asarray(state.units.orders[0])) == [Order.NONE] * 4
     assert list(ts.observation["last_actions"][:1]) == [FUNCTIONS.Stop_quick.id]
-    state, _ = no_op(step, state, BEACON_MAP, 2)
+    state, _ = no_op(step, state, 2)
     np.testing.assert_allclose(pos(state, 0), (START[0] + 2.25, START[1]), atol=1e-5)
 
 
 def test_patrol_turns_at_both_ends():
-    # Patrol target T = pixel (17, 11) = (34.125, 28.375); the marine starts 2.25 left
+    # Patrol target T = pixel (17, 11) = (33.125, 28.375); the marine starts 2.25 left
     # of it at P, so each leg takes exactly 2.25 / 0.140625 = 16 loops.
-    t = pixel_centre(CAM_B, 17, 11)
+    t = pixel_centre(CAM, 17, 11)
     p = (t[0] - 2.25, t[1])
-    step, state = beacon_scene(marine_xy=p)
-    state, _ = act(step, state, FUNCTIONS.Patrol_screen("now", (17, 11)), BEACON_MAP)
-    state, _ = no_op(step, state, BEACON_MAP)
+    step, state = move_scene(marine_xy=p)
+    state, _ = act(step, state, FUNCTIONS.Patrol_screen("now", (17, 11)))
+    state, _ = no_op(step, state)
     # Loop 16: at T, turned back towards P.
     np.testing.assert_allclose(pos(state, 0), t, atol=1e-5)
     assert int(state.units.orders[0, 0]) == Order.PATROL
     np.testing.assert_allclose(state.units.order_pos[0, 0], p, atol=1e-5)
     # Loop 24: 8 loops = 1.125 back towards P.
-    state, _ = no_op(step, state, BEACON_MAP)
+    state, _ = no_op(step, state)
     np.testing.assert_allclose(pos(state, 0), (t[0] - 1.125, t[1]), atol=1e-5)
     # Loop 32: at P, turned again towards T; loop 40: 1.125 towards T. Patrol never ends.
-    state, _ = no_op(step, state, BEACON_MAP)
+    state, _ = no_op(step, state)
     np.testing.assert_allclose(pos(state, 0), p, atol=1e-5)
     np.testing.assert_allclose(state.units.order_pos[0, 0], t, atol=1e-5)
-    state, _ = no_op(step, state, BEACON_MAP)
+    state, _ = no_op(step, state)
     np.testing.assert_allclose(pos(state, 0), (p[0] + 1.125, p[1]), atol=1e-5)
     assert int(state.units.orders[0, 0]) == Order.PATROL
 
 
 # Selection ---------------------------------------------------------------------------
 
-# FindAndDefeatZerglings' camera is (32, 25). Marines 0, 1, 2 at pixels (10, 16),
+# With the camera at (32, 25): marines 0, 1, 2 at pixels (10, 16),
 # (14, 16), (10, 22); an SCV (slot 6) at pixel (18, 22); an enemy zergling (slot 3) at
 # pixel (24, 10) = (38.375, 29.125): 8.75 from marine 1 (within its sight 9, so it is
 # drawn) and more than 5 + 0.75 from every marine (no one acquires anyone). Marine 5 is
 # off screen at (46, 30) (x >= 32 + 12), 7.7 from zergling 3; zergling 4 far away at
-# (52, 42) on hold (so the map never respawns).
-CAM_Z = (32.0, 25.0)
+# (52, 42) on hold.
 M0, M1, M2 = (10, 16), (14, 16), (10, 22)
 SCV_PX, ZERG_PX = (18, 22), (24, 10)
 
 
 def selection_scene(selected=(False, False, False)):
-    step, state = scene(ZERGLINGS_MAP, [
-        (0, UnitType.MARINE, Owner.SELF, pixel_centre(CAM_Z, *M0), selected[0]),
-        (1, UnitType.MARINE, Owner.SELF, pixel_centre(CAM_Z, *M1), selected[1]),
-        (2, UnitType.MARINE, Owner.SELF, pixel_centre(CAM_Z, *M2), selected[2]),
-        (3, UnitType.ZERGLING, Owner.ENEMY, pixel_centre(CAM_Z, *ZERG_PX), False),
-        (4, UnitType.ZERGLING, Owner.ENEMY, (52.0, 42.0), False),
+    step, state = scene([
+        (0, UnitType.MARINE, Owner.SELF, pixel_centre(CAM, *M0), selected[0]),
+        (1, UnitType.MARINE, Owner.SELF, pixel_centre(CAM, *M1), selected[1]),
+        (2, UnitType.MARINE, Owner.SELF, pixel_centre(CAM, *M2), selected[2]),
+        (3, UnitType.ZERGLING, Owner.ENEMY, pixel_centre(CAM, *ZERG_PX), False),
+        (4, UnitType.ZERGLING, Owner.ENEMY, FAR, False),
         (5, UnitType.MARINE, Owner.SELF, (46.0, 30.0), False),
-    ], camera=CAM_Z)
-    return step, set_unit(state, 4, order=(Order.HOLD, (52.0, 42.0)))
+    ])
+    return step, set_unit(state, 4, order=(Order.HOLD, FAR))
 
 
 def with_scv(state):
-    units, _ = place(state.units, jnp.array([6]), UnitType.SCV, Owner.SELF,
-                     jnp.array([pixel_centre(CAM_Z, *SCV_PX)], jnp.float32), 6)
-    return state.replace(units=units)
+    return set_unit(state, 6, alive=True, type=UnitType.SCV, owner=Owner.SELF, tag=6,
+                    pos=pixel_centre(CAM, *SCV_PX), health=45.0)
 
 
 def yx(px):
@@ -269,15 +288,14 @@ def yx(px):
 
 def test_select_point_select_and_toggle():
     step, state = selection_scene()
-    z = ZERGLINGS_MAP
-    state, ts = act(step, state, FUNCTIONS.select_point("select", M0), z)
+    state, ts = act(step, state, FUNCTIONS.select_point("select", M0))
     assert selected_slots(state) == {0}
     assert selected_pixels(ts) == {yx(M0)}  # A marine's disc (r = 0.5 px) is one pixel.
     assert ts.observation["single_select"].tolist() == [[MARINE_ID, 1, 45, 0, 0, 0, 0]]
     assert not ts.observation["multi_select"].any()
     assert available(ts) == MARINE_CARD
     # Toggle adds an unselected unit...
-    state, ts = act(step, state, FUNCTIONS.select_point("toggle", M1), z)
+    state, ts = act(step, state, FUNCTIONS.select_point("toggle", M1))
     assert selected_slots(state) == {0, 1}
     assert selected_pixels(ts) == {yx(M0), yx(M1)}
     assert not ts.observation["single_select"].any()
@@ -285,14 +303,14 @@ def test_select_point_select_and_toggle():
         [MARINE_ID, 1, 45, 0, 0, 0, 0]] * 2 + [[0] * 7]
     assert available(ts) == MARINE_CARD | {5}
     # ... and removes a selected one.
-    state, ts = act(step, state, FUNCTIONS.select_point("toggle", M0), z)
+    state, ts = act(step, state, FUNCTIONS.select_point("toggle", M0))
     assert selected_slots(state) == {1}
     assert selected_pixels(ts) == {yx(M1)}
     # Select replaces the selection.
-    state, ts = act(step, state, FUNCTIONS.select_point("select", M2), z)
+    state, ts = act(step, state, FUNCTIONS.select_point("select", M2))
     assert selected_slots(state) == {2}
     # Clicking where nothing is drawn clears it: only UI functions are left.
-    state, ts = act(step, state, FUNCTIONS.select_point("select", (2, 2)), z)
+    state, ts = act(step, state, FUNCTIONS.select_point("select", (2, 2)))
     assert selected_slots(state) == set()
     assert not ts.observation["feature_screen"][7].any()
     assert not ts.observation["single_select"].any()
@@ -301,7 +319,7 @@ def test_select_point_select_and_toggle():
 
 def test_select_point_enemy_alone_has_no_commands():
     step, state = selection_scene(selected=(True, True, False))
-    state, ts = act(step, state, FUNCTIONS.select_point("select", ZERG_PX), ZERGLINGS_MAP)
+    state, ts = act(step, state, FUNCTIONS.select_point("select", ZERG_PX))
     assert selected_slots(state) == {3}
     assert selected_pixels(ts) == {yx(ZERG_PX)}
     assert ts.observation["single_select"].tolist() == [[ZERGLING_ID, 4, 35, 0, 0, 0, 0]]
@@ -311,102 +329,98 @@ def test_select_point_enemy_alone_has_no_commands():
 def test_select_point_all_type_and_add_all_type():
     step, state = selection_scene()
     state = with_scv(state)
-    z = ZERGLINGS_MAP
-    state, ts = act(step, state, FUNCTIONS.select_point("select", SCV_PX), z)
+    state, ts = act(step, state, FUNCTIONS.select_point("select", SCV_PX))
     assert selected_slots(state) == {6}
     assert ts.observation["single_select"].tolist() == [[SCV_ID, 1, 45, 0, 0, 0, 0]]
     # add_all_type: the SCV stays, and every marine on the screen joins (not slot 5,
     # which is off screen).
-    state, ts = act(step, state, FUNCTIONS.select_point("add_all_type", M1), z)
+    state, ts = act(step, state, FUNCTIONS.select_point("add_all_type", M1))
     assert selected_slots(state) == {0, 1, 2, 6}
     assert selected_pixels(ts) == {yx(M0), yx(M1), yx(M2), yx(SCV_PX)}
     assert ts.observation["multi_select"][:5, 0].tolist() == [MARINE_ID] * 3 + [SCV_ID, 0]
     # select_all_type: only the marines on the screen.
-    state, ts = act(step, state, FUNCTIONS.select_point("select_all_type", M2), z)
+    state, ts = act(step, state, FUNCTIONS.select_point("select_all_type", M2))
     assert selected_slots(state) == {0, 1, 2}
     assert selected_pixels(ts) == {yx(M0), yx(M1), yx(M2)}
 
 
 def test_select_rect_with_and_without_add():
     step, state = selection_scene()
-    z = ZERGLINGS_MAP
     # Pixels x 9-15, y 15-17 hold marines 0 and 1 (pixel centres 10.5 and 14.5, 16.5).
-    state, ts = act(step, state, FUNCTIONS.select_rect("select", (9, 15), (15, 17)), z)
+    state, ts = act(step, state, FUNCTIONS.select_rect("select", (9, 15), (15, 17)))
     assert selected_slots(state) == {0, 1}
     assert selected_pixels(ts) == {yx(M0), yx(M1)}
     # The corners may come in any order.
-    state, ts = act(step, state, FUNCTIONS.select_rect("add", (11, 23), (9, 21)), z)
+    state, ts = act(step, state, FUNCTIONS.select_rect("add", (11, 23), (9, 21)))
     assert selected_slots(state) == {0, 1, 2}
     assert ts.observation["multi_select"][:4, 0].tolist() == [MARINE_ID] * 3 + [0]
     # Without add, the new box replaces the selection.
-    state, ts = act(step, state, FUNCTIONS.select_rect("select", (9, 21), (11, 23)), z)
+    state, ts = act(step, state, FUNCTIONS.select_rect("select", (9, 21), (11, 23)))
     assert selected_slots(state) == {2}
     assert ts.observation["single_select"][0, 0] == MARINE_ID
     # A box over only an enemy selects no own unit: the selection is cleared.
-    state, ts = act(step, state, FUNCTIONS.select_rect("select", (22, 8), (26, 12)), z)
+    state, ts = act(step, state, FUNCTIONS.select_rect("select", (22, 8), (26, 12)))
     assert selected_slots(state) == set()
     assert available(ts) == UI_ONLY
 
 
 def test_control_groups():
     step, state = selection_scene()
-    z = ZERGLINGS_MAP
 
     def groups(ts):
         return ts.observation["control_groups"].tolist()
 
-    state, ts = act(step, state, FUNCTIONS.select_point("select", M0), z)
-    state, ts = act(step, state, FUNCTIONS.select_control_group("set", 1), z)
+    state, ts = act(step, state, FUNCTIONS.select_point("select", M0))
+    state, ts = act(step, state, FUNCTIONS.select_control_group("set", 1))
     assert groups(ts)[1] == [MARINE_ID, 1]
     assert [g for i, g in enumerate(groups(ts)) if i != 1] == [[0, 0]] * 9
     # append: marine 1 joins group 1.
-    state, ts = act(step, state, FUNCTIONS.select_point("select", M1), z)
-    state, ts = act(step, state, FUNCTIONS.select_control_group("append", 1), z)
+    state, ts = act(step, state, FUNCTIONS.select_point("select", M1))
+    state, ts = act(step, state, FUNCTIONS.select_control_group("append", 1))
     assert groups(ts)[1] == [MARINE_ID, 2]
     # set group 2 to marine 2, then recall group 1.
-    state, ts = act(step, state, FUNCTIONS.select_point("select", M2), z)
-    state, ts = act(step, state, FUNCTIONS.select_control_group("set", 2), z)
+    state, ts = act(step, state, FUNCTIONS.select_point("select", M2))
+    state, ts = act(step, state, FUNCTIONS.select_control_group("set", 2))
     assert groups(ts)[2] == [MARINE_ID, 1]
-    state, ts = act(step, state, FUNCTIONS.select_control_group("recall", 1), z)
+    state, ts = act(step, state, FUNCTIONS.select_control_group("recall", 1))
     assert selected_slots(state) == {0, 1}
     assert selected_pixels(ts) == {yx(M0), yx(M1)}
     # set (without steal) keeps other memberships: marine 0 is then in groups 1 and 3.
-    state, ts = act(step, state, FUNCTIONS.select_point("select", M0), z)
-    state, ts = act(step, state, FUNCTIONS.select_control_group("set", 3), z)
+    state, ts = act(step, state, FUNCTIONS.select_point("select", M0))
+    state, ts = act(step, state, FUNCTIONS.select_control_group("set", 3))
     assert [groups(ts)[g] for g in (1, 2, 3)] == [[MARINE_ID, 2], [MARINE_ID, 1],
                                                   [MARINE_ID, 1]]
     # set_and_steal: group 2 becomes {marine 1}; marine 1 leaves group 1, marine 2
     # leaves group 2.
-    state, ts = act(step, state, FUNCTIONS.select_point("select", M1), z)
-    state, ts = act(step, state, FUNCTIONS.select_control_group("set_and_steal", 2), z)
+    state, ts = act(step, state, FUNCTIONS.select_point("select", M1))
+    state, ts = act(step, state, FUNCTIONS.select_control_group("set_and_steal", 2))
     assert [groups(ts)[g] for g in (1, 2, 3)] == [[MARINE_ID, 1], [MARINE_ID, 1],
                                                   [MARINE_ID, 1]]
-    state, ts = act(step, state, FUNCTIONS.select_control_group("recall", 2), z)
+    state, ts = act(step, state, FUNCTIONS.select_control_group("recall", 2))
     assert selected_slots(state) == {1}
     # append_and_steal: marine 0 joins group 2 and leaves groups 1 and 3.
-    state, ts = act(step, state, FUNCTIONS.select_point("select", M0), z)
-    state, ts = act(step, state, FUNCTIONS.select_control_group("append_and_steal", 2), z)
+    state, ts = act(step, state, FUNCTIONS.select_point("select", M0))
+    state, ts = act(step, state, FUNCTIONS.select_control_group("append_and_steal", 2))
     assert [groups(ts)[g] for g in (1, 2, 3)] == [[0, 0], [MARINE_ID, 2], [0, 0]]
-    state, ts = act(step, state, FUNCTIONS.select_point("select", M2), z)
-    state, ts = act(step, state, FUNCTIONS.select_control_group("recall", 2), z)
+    state, ts = act(step, state, FUNCTIONS.select_point("select", M2))
+    state, ts = act(step, state, FUNCTIONS.select_control_group("recall", 2))
     assert selected_slots(state) == {0, 1}
     assert ts.observation["multi_select"][:3, 0].tolist() == [MARINE_ID] * 2 + [0]
     # Recalling an empty group changes nothing.
-    state, ts = act(step, state, FUNCTIONS.select_control_group("recall", 1), z)
+    state, ts = act(step, state, FUNCTIONS.select_control_group("recall", 1))
     assert selected_slots(state) == {0, 1}
 
 
 def test_control_group_members_that_die_leave_it():
     step, state = selection_scene(selected=(True, True, False))
-    state, ts = act(step, state, FUNCTIONS.select_control_group("set", 4),
-                    ZERGLINGS_MAP)
+    state, ts = act(step, state, FUNCTIONS.select_control_group("set", 4))
     assert ts.observation["control_groups"][4].tolist() == [MARINE_ID, 2]
     # Marine 1 at 5 HP with the zergling next to it (0.8 apart: gap 0.05 <= 0.1 range):
     # the zergling's first bite (5 damage, marine armour 0) kills it on loop 1.
-    m1 = pixel_centre(CAM_Z, *M1)
+    m1 = pixel_centre(CAM, *M1)
     state = set_unit(state, 1, health=5.0)
-    state = set_unit(state, 3, pos=jnp.array([m1[0] + 0.8, m1[1]], jnp.float32))
-    state, ts = no_op(step, state, ZERGLINGS_MAP)
+    state = set_unit(state, 3, pos=(m1[0] + 0.8, m1[1]))
+    state, ts = no_op(step, state)
     assert not bool(state.units.alive[1])
     assert ts.observation["control_groups"][4].tolist() == [MARINE_ID, 1]
     assert selected_slots(state) == {0}
@@ -417,15 +431,14 @@ def test_control_group_members_that_die_leave_it():
 def test_move_camera_follows_pysc2s_transforms_and_is_clamped():
     # The minimap (32 px) spans the 64-unit map: 2 units per pixel, y flipped, and a
     # pixel stands for its centre: pixel (16, 16) -> (16.5 * 2, 64 - 16.5 * 2) = (33, 31).
-    z = ZERGLINGS_MAP
     step, state = selection_scene()
-    state, ts = act(step, state, FUNCTIONS.move_camera((16, 16)), z)
+    state, ts = act(step, state, FUNCTIONS.move_camera((16, 16)))
     np.testing.assert_allclose(state.camera, (33.0, 31.0))
     # Pixel (0, 0) -> (1, 63), clamped to the camera bounds' corner (10, 44). A marine
     # at the centre of screen pixel (16, 16), (10.375, 43.625), is drawn there.
     corner = pixel_centre((10.0, 44.0), 16, 16)
-    state = set_unit(state, 0, pos=jnp.array(corner, jnp.float32))
-    state, ts = act(step, state, FUNCTIONS.move_camera((0, 0)), z)
+    state = set_unit(state, 0, pos=corner)
+    state, ts = act(step, state, FUNCTIONS.move_camera((0, 0)))
     np.testing.assert_allclose(state.camera, (10.0, 44.0))
     fu = ts.observation["feature_units"]
     assert fu[0][[0, 12, 13]].tolist() == [MARINE_ID, 16, 16]  # unit_type, x, y.
@@ -440,8 +453,8 @@ def test_move_camera_follows_pysc2s_transforms_and_is_clamped():
     # (53.625, 12.125), inside the playable area.
     corner = pixel_centre((54.0, 8.0), 15, 10)
     assert corner == (53.625, 12.125)
-    state = set_unit(state, 0, pos=jnp.array(corner, jnp.float32))
-    state, ts = act(step, state, FUNCTIONS.move_camera((31, 31)), z)
+    state = set_unit(state, 0, pos=corner)
+    state, ts = act(step, state, FUNCTIONS.move_camera((31, 31)))
     np.testing.assert_allclose(state.camera, (54.0, 8.0))
     assert ts.observation["feature_units"][0][[0, 12, 13]].tolist() == [MARINE_ID, 15, 10]
     assert ts.observation["feature_screen"][6][10, 15] == MARINE_ID
@@ -450,39 +463,46 @@ def test_move_camera_follows_pysc2s_transforms_and_is_clamped():
 # Availability ------------------------------------------------------------------------
 
 def test_available_actions_follow_the_selection():
-    sim = small_sim(ZERGLINGS_MAP)
-    _, ts = compiled(sim)[0](jax.random.PRNGKey(0), PARAMS)
-    # The map preselects its three marines.
-    assert available(jax.device_get(ts)) == MARINE_CARD | {5}
+    step, state = selection_scene(selected=(True, True, True))
+    state, ts = no_op(step, state)
+    assert available(ts) == MARINE_CARD | {5}  # Several units: select_unit too.
     step, state = selection_scene(selected=(False, True, False))
-    state, ts = no_op(step, state, ZERGLINGS_MAP)
+    state, ts = no_op(step, state)
     assert available(ts) == MARINE_CARD
     step, state = selection_scene()
-    state, ts = no_op(step, state, ZERGLINGS_MAP)
+    state, ts = no_op(step, state)
     assert available(ts) == UI_ONLY
     # An idle SCV makes select_idle_worker available.
-    state, ts = no_op(step, with_scv(state), ZERGLINGS_MAP)
+    state, ts = no_op(step, with_scv(state))
     assert available(ts) == UI_ONLY | {6}
 
 
 def test_unavailable_action_raises_in_the_wrapper():
-    env = make(BEACON_MAP, seed=0, **SMALL_MAKE)
+    env = make(MAP, seed=0, **SMALL_MAKE)
     ts = env.reset()
-    # MoveToBeacon's marine starts unselected.
+    # The map preselects its three marines.
+    assert set(ts.observation["available_actions"].tolist()) == MARINE_CARD | {5}
+    with pytest.raises(ValueError, match="477/Train_Marine_quick is not available"):
+        env.step(FUNCTIONS.Train_Marine_quick("now"))
+    # Clicking empty ground clears the selection; then Move is not available.
+    ts = env.step(FUNCTIONS.select_point("select", (0, 0)))
     assert set(ts.observation["available_actions"].tolist()) == UI_ONLY
     with pytest.raises(ValueError, match="331/Move_screen is not available"):
         env.step(FUNCTIONS.Move_screen("now", (5, 5)))
 
 
 def test_unavailable_action_is_a_reported_no_op_without_the_check():
-    env = make(BEACON_MAP, seed=0, ensure_available_actions=False, **SMALL_MAKE)
-    ts = env.reset()
-    marine = ts.observation["raw_units"][0].copy()
+    env = make(MAP, seed=0, ensure_available_actions=False, **SMALL_MAKE)
+    env.reset()
+    ts = env.step(FUNCTIONS.select_point("select", (0, 0)))
+    marines = ts.observation["raw_units"][:3].copy()
+    assert marines[:, FeatureUnit.unit_type].tolist() == [MARINE_ID] * 3
     ts = env.step(FUNCTIONS.Move_screen("now", (5, 5)))
     assert ts.observation["action_result"].tolist() == [ActionResult.NotSupported]
     assert ts.observation["last_actions"].tolist() == []
-    assert ts.observation["raw_units"][0][FeatureUnit.order_length] == 0  # No order.
-    np.testing.assert_array_equal(ts.observation["raw_units"][0], marine)
+    # The marines took no order and did not move.
+    assert ts.observation["raw_units"][:3, FeatureUnit.order_length].tolist() == [0, 0, 0]
+    np.testing.assert_array_equal(ts.observation["raw_units"][:3], marines)
     # A later valid action reports no error.
     ts = env.step(FUNCTIONS.no_op())
     assert ts.observation["action_result"].tolist() == []
@@ -492,11 +512,11 @@ def test_unavailable_action_is_a_reported_no_op_without_the_check():
 
 def fight_scene(zergling_xy, marine_xy=(30.0, 28.0)):
     """Marine 0 (selected) and zergling 3 on hold; zergling 4 far away on hold."""
-    step, state = scene(ZERGLINGS_MAP, [
+    step, state = scene([
         (0, UnitType.MARINE, Owner.SELF, marine_xy, True),
         (3, UnitType.ZERGLING, Owner.ENEMY, zergling_xy, False),
-        (4, UnitType.ZERGLING, Owner.ENEMY, (52.0, 42.0), False),
-    ], camera=CAM_Z)
+        (4, UnitType.ZERGLING, Owner.ENEMY, FAR, False),
+    ], camera=CAM)
     state = set_unit(state, 3, order=(Order.HOLD, zergling_xy))
     return step, set_unit(state, 4, order=(Order.HOLD, (52.0, 42.0)))
 
@@ -504,7 +524,7 @@ def fight_scene(zergling_xy, marine_xy=(30.0, 28.0)):
 def run_loops(units, seed, loops, until_dead=None):
     """Runs the jitted game loop; returns (units, [(loop, zergling 3 health) per change],
     the loop on which slot `until_dead` died or None)."""
-    playable = small_sim(ZERGLINGS_MAP).game.geometry.playable
+    playable = small_sim(MAP).game.geometry.playable
     key = jax.random.PRNGKey(seed)
     changes, last, died_on = [], float(units.health[3]), None
     for loop in range(1, loops + 1):
@@ -529,8 +549,7 @@ def test_marine_kills_a_zergling_in_six_shots_at_its_cooldown():
     # ceil(13.7728 + jitter + c): 12..16 loops.
     _, state = fight_scene((34.0, 28.0))
     state = set_unit(state, 0, order=(Order.ATTACK_UNIT, (34.0, 28.0)))
-    units = state.units
-    units = units.replace(order_unit=units.order_unit.at[0, 0].set(3))
+    units = set_unit(state, 0, order_unit=(3, -1, -1, -1)).units
     for seed in (7, 8, 9):
         after, changes, died_on = run_loops(units, seed, 100, until_dead=3)
         shots = [loop for loop, _ in changes]
@@ -552,7 +571,7 @@ def test_weapon_cooldown_and_jitter():
     # loops: 13, 14, 15 or 16 for jitter -1, 0, 1, 2 (never 12: a weapon cannot fire
     # before its cooldown has passed). 32 independent first intervals show all four.
     _, state = fight_scene((34.0, 28.0))
-    units = state.units.replace(health=state.units.health.at[3].set(1e6))
+    units = set_unit(state, 3, health=1e6).units
     first = set()
     for seed in range(32):
         _, changes, _ = run_loops(units, seed, 17)
@@ -570,9 +589,9 @@ def test_attack_screen_on_an_enemy_is_attack_unit():
     # Zergling 3 at pixel (24, 10) = (38.375, 29.125); the marine at (30, 28): 8.45 away,
     # out of range (gap 7.70 > 5) and out of acquisition. Clicking the zergling with
     # Attack gives an attack-unit order: the marine closes to range, then fires.
-    zerg = pixel_centre(CAM_Z, *ZERG_PX)
+    zerg = pixel_centre(CAM, *ZERG_PX)
     step, state = fight_scene(zerg)
-    state, ts = act(step, state, FUNCTIONS.Attack_screen("now", ZERG_PX), ZERGLINGS_MAP)
+    state, ts = act(step, state, FUNCTIONS.Attack_screen("now", ZERG_PX))
     assert int(state.units.orders[0, 0]) == Order.ATTACK_UNIT
     assert int(state.units.order_unit[0, 0]) == 3
     # It must cover 7.70 - 5 = 2.70 = 19.2 loops of walking: after 8 loops it has moved
@@ -581,13 +600,13 @@ def test_attack_screen_on_an_enemy_is_attack_unit():
     d1 = np.hypot(*(np.asarray(zerg) - pos(state, 0)))
     np.testing.assert_allclose(d0 - d1, 1.125, atol=1e-4)
     assert float(state.units.health[3]) == 35.0
-    state, ts = no_op(step, state, ZERGLINGS_MAP, 2)
+    state, ts = no_op(step, state, 2)
     # By loop 24 it stands in range (gap <= 5, 1e-3 of slack) and has fired once.
     gap = np.hypot(*(np.asarray(zerg) - pos(state, 0))) - 0.75
     assert 4.99 <= gap <= 5.0
     assert float(state.units.health[3]) == 29.0
     # Five more shots, the last by loop 21 + 5 * 15.77 < 101 (step 13).
-    state, ts = no_op(step, state, ZERGLINGS_MAP, 10)
+    state, ts = no_op(step, state, 10)
     assert not bool(state.units.alive[3])
     assert int(state.units.orders[0, 0]) == Order.NONE
     assert int(ts.observation["score_cumulative"][0]) == 1  # +1 for the zergling.
@@ -597,11 +616,10 @@ def test_attack_move_fights_on_the_way_but_move_does_not():
     # Marine at (20, 28), zergling 3 holding at (30, 28) on the way to (40, 28) = the
     # centre of pixel... the goal is given on the minimap: pixel (20, 18) is
     # (41, 27) -> the marine walks along y ~ 28 towards it.
-    z = ZERGLINGS_MAP
     step, state = fight_scene((30.0, 28.0), marine_xy=(20.0, 27.0))
-    state, _ = act(step, state, FUNCTIONS.Move_minimap("now", (20, 18)), z)
+    state, _ = act(step, state, FUNCTIONS.Move_minimap("now", (20, 18)))
     np.testing.assert_allclose(state.units.order_pos[0, 0], (41.0, 27.0))
-    state, ts = no_op(step, state, z, 20)
+    state, ts = no_op(step, state, 20)
     # A move order ignores enemies: the zergling is untouched, the marine arrived
     # (21 units at 1.125 per step: 19 steps) and went round the zergling.
     assert float(state.units.health[3]) == 35.0
@@ -609,11 +627,11 @@ def test_attack_move_fights_on_the_way_but_move_does_not():
     # Attack-move: it stops to kill the zergling (35 HP: 6 shots, about 70 loops), then
     # goes on to the goal.
     step, state = fight_scene((30.0, 28.0), marine_xy=(20.0, 27.0))
-    state, ts = act(step, state, FUNCTIONS.Attack_minimap("now", (20, 18)), z)
+    state, ts = act(step, state, FUNCTIONS.Attack_minimap("now", (20, 18)))
     assert int(state.units.orders[0, 0]) == Order.ATTACK_MOVE
     rewards = [float(ts.reward)]
     for _ in range(40):
-        state, ts = no_op(step, state, z)
+        state, ts = no_op(step, state)
         rewards.append(float(ts.reward))
     assert not bool(state.units.alive[3])
     assert sum(rewards) == 1.0
@@ -626,15 +644,14 @@ def test_hold_position_fires_but_never_chases():
     # order (0.1846 per loop, faster than the marine). Both marines fire on loop 1
     # (35 -> 29) and again only after ~14 loops. The idle marine chases the zergling
     # (it stays within sight 9); the holding marine stays put.
-    z = ZERGLINGS_MAP
     results = {}
     for hold in (False, True):
         step, state = fight_scene((34.0, 28.0))
         state = set_unit(state, 3, order=(Order.MOVE, (50.0, 28.0)))
         call = FUNCTIONS.HoldPosition_quick("now") if hold else FUNCTIONS.no_op()
-        state, ts = act(step, state, call, z)
+        state, ts = act(step, state, call)
         assert float(state.units.health[3]) == 29.0
-        state, _ = no_op(step, state, z, 2)
+        state, _ = no_op(step, state, 2)
         results[hold] = (pos(state, 0), int(state.units.orders[0, 0]))
     held_pos, held_order = results[True]
     np.testing.assert_allclose(held_pos, (30.0, 28.0))
@@ -645,66 +662,72 @@ def test_hold_position_fires_but_never_chases():
 
 # Mini-game rewards -------------------------------------------------------------------
 
+def no_events(num_slots):
+    return LoopEvents(died=jnp.zeros(num_slots, bool), damage_dealt=jnp.float32(0),
+                      damage_taken=jnp.float32(0))
+
+
+def script_state(map_name, units_spec):
+    """A state holding another map's units (its script reads only units, minerals,
+    score and key, so the template state carries them)."""
+    game, on_loop, on_step = script(map_name)
+    state = _template().replace(units=make_units(game.num_slots, units_spec))
+    return game, on_loop, on_step, state
+
+
 def test_move_to_beacon_reward_and_beacon_jump():
-    # Beacon at pixel (20, 12) = (36.375, 27.625); the marine 2 to its left. Moving at
-    # 0.140625 per loop, it is within 1.25 of the beacon on loop ceil(0.75 / 0.140625)
-    # = 6, at (34.375 + 0.84375, 27.625): +1, and the beacon jumps at least 5 from there.
-    beacon = pixel_centre(CAM_B, 20, 12)
-    marine = (beacon[0] - 2.0, beacon[1])
-    step, state = beacon_scene(marine_xy=marine, beacon_xy=beacon)
-    state, ts = act(step, state, FUNCTIONS.Move_screen("now", (20, 12)), BEACON_MAP)
-    assert float(ts.reward) == 1.0
-    assert int(ts.observation["score_cumulative"][0]) == 1
-    at_reward = np.array([marine[0] + 6 * SPEED, marine[1]])
-    new_beacon = pos(state, 1)
-    assert np.hypot(*(new_beacon - at_reward)) >= 5.0
-    # It lands in region 3, (23.5, 21.5)-(42.5, 34.5), outside the circle r=4 at (33, 28).
-    assert 23.5 <= new_beacon[0] <= 42.5 and 21.5 <= new_beacon[1] <= 34.5
-    assert np.hypot(new_beacon[0] - 33.0, new_beacon[1] - 28.0) >= 4.0
-    # The marine walks on to the old beacon point (the clicked point) and stops.
-    np.testing.assert_allclose(pos(state, 0), (marine[0] + 1.125, marine[1]), atol=1e-5)
-    state, ts = no_op(step, state, BEACON_MAP)
-    assert float(ts.reward) == 0.0
-    np.testing.assert_allclose(pos(state, 0), beacon, atol=1e-5)
-
-
-def shards_state(marines, shards):
-    """A state holding CollectMineralShards' units: marines in slots 0-1, shards from
-    slot 2. (The script reads only units, minerals, score and key, so MoveToBeacon's
-    reset state carries them, and no CollectMineralShards step needs compiling.)"""
-    game = get_map(SHARDS_MAP)
-    _, state = beacon_scene()
-    units = Units.empty(game.num_slots)
-    for slot, xy in enumerate(marines):
-        units, _ = place(units, jnp.array([slot]), UnitType.MARINE, Owner.SELF,
-                         jnp.array([xy], jnp.float32), slot)
-    for i, xy in enumerate(shards):
-        units, _ = place(units, jnp.array([2 + i]), UnitType.MINERAL_SHARD, Owner.NEUTRAL,
-                         jnp.array([xy], jnp.float32), 2 + i)
-    return game, state.replace(units=units)
+    # +1 when the marine's centre is within 1.25 of the beacon's, checked every loop;
+    # the beacon then jumps to region 3, (23.5, 21.5)-(42.5, 34.5), outside the circle
+    # r = 4 at (33, 28), at least 5 from the marine.
+    marine = (30.0, 28.0)
+    for seed in range(8):
+        game, on_loop, _, state = script_state(BEACON_MAP, [
+            (0, UnitType.MARINE, Owner.SELF, marine, True),
+            (1, UnitType.BEACON, Owner.NEUTRAL, (30.0, 29.249), False),
+        ])
+        state = on_loop(state.replace(key=jax.random.PRNGKey(seed)), no_events(2))
+        assert int(state.score) == 1
+        beacon = pos(state, 1)
+        assert np.hypot(*(beacon - marine)) >= 5.0
+        assert 23.5 <= beacon[0] <= 42.5 and 21.5 <= beacon[1] <= 34.5
+        assert np.hypot(beacon[0] - 33.0, beacon[1] - 28.0) >= 4.0
+        # The next loop the beacon is far: no more reward.
+        assert int(on_loop(state, no_events(2)).score) == 1
+    # 1.251 away: nothing happens.
+    _, on_loop, _, state = script_state(BEACON_MAP, [
+        (0, UnitType.MARINE, Owner.SELF, marine, True),
+        (1, UnitType.BEACON, Owner.NEUTRAL, (31.251, 28.0), False),
+    ])
+    after = on_loop(state, no_events(2))
+    assert int(after.score) == 0
+    np.testing.assert_array_equal(after.units.pos, state.units.pos)
 
 
 def test_collect_mineral_shards_pickup_and_respawn():
     # A marine picks up a shard its centre is within 0.375 + 0.375 = 0.75 of: +100
     # minerals, and the score (minerals / 100) rises by 1 per shard. Marine 0 is 0.74
     # from shard 2 and 0.76 from shard 3; marine 1 is 0.5 from shard 4.
-    game, state = shards_state(marines=[(30.0, 28.0), (40.0, 24.0)],
-                               shards=[(30.74, 28.0), (30.0, 27.24), (40.0, 24.5)])
-    events = LoopEvents(died=jnp.zeros(game.num_slots, bool), damage_dealt=jnp.float32(0),
-                        damage_taken=jnp.float32(0))
-    state = game.on_loop(state, events)
+    game, on_loop, on_step, state = script_state(SHARDS_MAP, [
+        (0, UnitType.MARINE, Owner.SELF, (30.0, 28.0), False),
+        (1, UnitType.MARINE, Owner.SELF, (40.0, 24.0), False),
+        (2, UnitType.MINERAL_SHARD, Owner.NEUTRAL, (30.74, 28.0), False),
+        (3, UnitType.MINERAL_SHARD, Owner.NEUTRAL, (30.0, 27.24), False),
+        (4, UnitType.MINERAL_SHARD, Owner.NEUTRAL, (40.0, 24.5), False),
+    ])
+    events = no_events(game.num_slots)
+    state = on_loop(state, events)
     assert np.asarray(state.units.alive[2:5]).tolist() == [False, True, False]
     assert int(state.minerals) == 200 and int(state.score) == 2
     # A shard remains: no respawn at the end of the step.
-    assert np.asarray(game.on_step(state).units.alive[2:22]).sum() == 1
-    # Marine 0 steps onto shard 3 (0.75 away exactly): +1; none is left, and at the end
-    # of the step 20 new shards appear in region 3, each at least 2 from both marines.
-    state = state.replace(units=state.units.replace(
-        pos=state.units.pos.at[0].set(jnp.array([30.0, 27.99], jnp.float32))))
-    state = game.on_loop(state, events)
+    assert np.asarray(on_step(state).units.alive[2:22]).sum() == 1
+    # Marine 0 steps to 0.75 from shard 3: +1; none is left, and at the end of the step
+    # 20 new shards appear in region 3, (23, 21)-(43, 35), each at least 2 from both
+    # marines.
+    state = set_unit(state, 0, pos=(30.0, 27.99))
+    state = on_loop(state, events)
     assert int(state.minerals) == 300 and int(state.score) == 3
     assert not np.asarray(state.units.alive[2:22]).any()
-    units = jax.device_get(game.on_step(state).units)
+    units = jax.device_get(on_step(state).units)
     assert units.alive[2:22].all() and (units.type[2:22] == UnitType.MINERAL_SHARD).all()
     shards = units.pos[2:22]
     d = np.linalg.norm(shards[:, None, :] - units.pos[None, :2], axis=-1)
@@ -713,12 +736,11 @@ def test_collect_mineral_shards_pickup_and_respawn():
 
 
 def test_find_and_defeat_zerglings_kill_and_loss():
-    z = ZERGLINGS_MAP
     # Kill: a 6-HP zergling 4 from an idle marine (gap 3.25 <= acquisition 5): the
     # marine's first shot on loop 1 kills it. +1, and it is removed.
     step, state = fight_scene((34.0, 28.0))
     state = set_unit(state, 3, health=6.0)
-    state, ts = no_op(step, state, z)
+    state, ts = no_op(step, state)
     assert float(ts.reward) == 1.0
     assert not bool(state.units.alive[3])
     # Zergling 4 is hidden by fog, and zergling 3 is gone.
@@ -726,28 +748,28 @@ def test_find_and_defeat_zerglings_kill_and_loss():
     assert int(ts.step_type) == dm_env.StepType.MID
     # Loss: marine 1 at 5 HP, a zergling 0.8 from it (gap 0.05 <= 0.1): its first bite
     # kills the marine (-1). The marine shoots back once (35 -> 29). Marine 0 lives on.
-    step, state = scene(z, [
+    step, state = scene([
         (0, UnitType.MARINE, Owner.SELF, (20.0, 20.0), False),
         (1, UnitType.MARINE, Owner.SELF, (40.0, 30.0), False),
         (3, UnitType.ZERGLING, Owner.ENEMY, (40.8, 30.0), False),
     ])
     state = set_unit(state, 1, health=5.0)
-    state, ts = no_op(step, state, z)
+    state, ts = no_op(step, state)
     assert float(ts.reward) == -1.0
     assert not bool(state.units.alive[1])
     assert float(state.units.health[3]) == 29.0
     assert int(ts.step_type) == dm_env.StepType.MID and float(ts.discount) == 1.0
     # The last marine's death ends the episode: LAST, discount 0.
-    step, state = scene(z, [
+    step, state = scene([
         (1, UnitType.MARINE, Owner.SELF, (40.0, 30.0), False),
         (3, UnitType.ZERGLING, Owner.ENEMY, (40.8, 30.0), False),
     ])
     state = set_unit(state, 1, health=5.0)
-    state, ts = no_op(step, state, z)
+    state, ts = no_op(step, state)
     assert float(ts.reward) == -1.0
     assert int(ts.step_type) == dm_env.StepType.LAST and float(ts.discount) == 0.0
 
 
 def test_scenes_share_one_compiled_step():
-    for name in (BEACON_MAP, ZERGLINGS_MAP):
-        assert compiled(small_sim(name))[1]._cache_size() == 1, name
+    # Every scene above has the avals of a reset state: the step never recompiled.
+    assert compiled(small_sim(MAP))[1]._cache_size() == 1
