@@ -3,8 +3,8 @@
 Each function takes the units (and what it needs to see the screen) and returns the new
 units or camera plus a success flag; a failed action changes nothing. The rules follow
 the game's: only the player's own units can be selected together; a single enemy or
-neutral unit can be selected alone (and then has no commands); clicking where nothing
-is drawn clears the selection.
+neutral unit can be selected alone (and then has no commands); a plain click where
+nothing is drawn clears the selection, a toggle or add click there keeps it.
 """
 
 from __future__ import annotations
@@ -45,11 +45,14 @@ def select_point(units: Units, on_screen, picked, act):
     same_type = own & on_screen & (units.type == units.type[safe]) & picked_own
     current_own = units.selected & own
     toggled = jnp.where(only, ~units.selected, current_own)
+    # Toggling or adding where nothing is drawn (a shift-click on the ground) keeps the
+    # selection; a plain click there clears it.
+    keep_if_missed = lambda x: jnp.where(hit, x, units.selected)  # noqa: E731
     choices = jnp.stack([
         only,
-        jnp.where(picked_own, toggled, only),
+        keep_if_missed(jnp.where(picked_own, toggled, only)),
         jnp.where(picked_own, same_type, only),
-        jnp.where(picked_own, current_own | same_type, only),
+        keep_if_missed(jnp.where(picked_own, current_own | same_type, only)),
     ])
     act = jnp.clip(act, 0, len(args_lib.SelectPointAct) - 1)
     return units.replace(selected=choices[act] & units.alive), jnp.bool_(True)
