@@ -309,7 +309,12 @@ def test_select_point_select_and_toggle():
     # Select replaces the selection.
     state, ts = act(step, state, FUNCTIONS.select_point("select", M2))
     assert selected_slots(state) == {2}
-    # Clicking where nothing is drawn clears it: only UI functions are left.
+    # Toggling or adding where nothing is drawn (a shift-click on the ground) keeps it...
+    for act_name in ("toggle", "add_all_type"):
+        state, ts = act(step, state, FUNCTIONS.select_point(act_name, (2, 2)))
+        assert selected_slots(state) == {2}
+        assert selected_pixels(ts) == {yx(M2)}
+    # ... a plain click there clears it: only UI functions are left.
     state, ts = act(step, state, FUNCTIONS.select_point("select", (2, 2)))
     assert selected_slots(state) == set()
     assert not ts.observation["feature_screen"][7].any()
