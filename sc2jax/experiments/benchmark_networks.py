@@ -1,0 +1,154 @@
+"""Forward + backward throughput of the four networks on this machine.
+
+    python -m sc2jax.experiments.benchmark_networks [--resolutions 64 32] [--repeats 5]
+
+For each network and resolution (all 27 screen and 11 minimap layers), times one
+jitted gradient of the A3C loss (`make_actor_critic_loss`) on a trajectory of T steps
+for B environments, T * B = 32 samples (plus the B bootstrap observations), and
+reports samples per second: the median over `--repeats` timed calls after one
+warm-up call (compilation excluded). With `--write`, the table replaces the section
+"## Networks: forward + backward throughput" of docs/benchmarks.md.
+"""
+
+from __future__ import annotations
+
+import argparse
+import datetime
+import os
+import platform
+import statistics
+import time
+from collections.abc import Sequence
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+
+from sc2jax.environment import ObservationFormat, observation_spec
+from sc2jax.environment.dense import DenseAction
+from sc2jax.losses import Trajectory, make_actor_critic_loss
+from sc2jax.networks import NETWORKS, make_network
+
+SECTION = "## Networks: forward + backward throughput"
+DOC = os.path.join(os.path.dirname(__file__), "..", "..", "docs", "benchmarks.md")
+
+
+def host_init(net, *args, seed: int = 0):
+    """Parameters of `net.init`'s shapes drawn on the host (XLA compiles whole-network
+    random initialisers slowly on CPU; values do not matter for timing)."""
+    rng = np.random.default_rng(seed)
+    shapes = jax.eval_shape(net.init, jax.random.key(0), *args)
+    return jax.tree.map(lambda s: jnp.asarray(
+        rng.normal(0, 0.02, s.shape).astype(s.dtype)), shapes)
+
+
+def param_count(name: str, size: int = 64) -> int:
+    """Parameters of a network at size x size with every feature layer."""
+    net, args, _ = _setup(name, size, 1, 1)
+    return sum(int(np.prod(s.shape)) for s in jax.tree.leaves(
+        jax.eval_shape(net.init, jax.random.key(0), *args)))
+
+
+def _setup(name: str, size: int, t: int, b: int):
+    fmt = ObservationFormat(screen_size=size, minimap_size=size)
+    net = make_network(name, fmt)
+    spec = observation_spec(fmt, padded=True)
+    rng = np.random.default_rng(0)
+    obs = {}
+    for key, layers in (("feature_screen", fmt.screen_layers),
+                        ("feature_minimap", fmt.minimap_layers)):
+        scales = np.array([f.scale for f in layers]).reshape(-1, 1, 1)
+        obs[key] = (rng.random((t + 1, b) + spec[key].shape) * scales).astype(np.int32)
+    obs["player"] = rng.integers(0, 1000, (t + 1, b, 11), dtype=np.int32)
+    obs["available_actions"] = np.ones((t + 1, b, 573), bool)
+    obs = {k: jnp.asarray(v) for k, v in obs.items()}
+    first = jnp.zeros((t + 1, b), bool)
+    if name == "fullyconv_lstm":
+        args = (net.initial_carry(b), obs, first)
+    else:
+        args = (jax.tree.map(lambda x: x[0], obs),)
+    return net, args, obs
+
+
+def benchmark(name: str, size: int, t: int, b: int, repeats: int) -> float:
+    """Median samples per second of a jitted A3C gradient."""
+    net, args, obs = _setup(name, size, t, b)
+    params = host_init(net, *args)
+    action = DenseAction(jnp.zeros((t, b), jnp.int32).at[:, ::2].set(331),  # Move_screen
+                         *(jnp.ones((t, b, 2) if i < 3 else (t, b), jnp.int32)
+                           for i in range(13)))
+    traj = Trajectory(obs, action, jnp.ones((t, b)), jnp.full((t, b), 0.99),
+                      jnp.zeros((t + 1, b), bool), None,
+                      net.initial_carry(b) if name == "fullyconv_lstm" else None)
+    grad = jax.jit(jax.grad(make_actor_critic_loss(net), has_aux=True))
+    jax.block_until_ready(grad(params, traj))  # compile + warm-up
+    times = []
+    for _ in range(repeats):
+        start = time.perf_counter()
+        jax.block_until_ready(grad(params, traj))
+        times.append(time.perf_counter() - start)
+    return t * b / statistics.median(times)
+
+
+def _cpu_model() -> str:
+    try:
+        with open("/proc/cpuinfo") as f:
+            for line in f:
+                if line.startswith("model name"):
+                    return line.split(":", 1)[1].strip()
+    except OSError:
+        pass
+    return platform.processor() or "unknown"
+
+
+def write_section(text: str, path: str = DOC) -> None:
+    """Replaces (or appends) the section in docs/benchmarks.md, touching nothing else."""
+    path = os.path.abspath(path)
+    if not os.path.exists(path):
+        with open(path, "w") as f:
+            f.write("# Benchmarks\n")
+    with open(path) as f:
+        doc = f.read()
+    start = doc.find(SECTION)
+    if start < 0:
+        doc = doc.rstrip("\n") + "\n\n" + text
+    else:
+        end = doc.find("\n## ", start + len(SECTION))
+        doc = doc[:start] + text + ("" if end < 0 else doc[end + 1:])
+    with open(path, "w") as f:
+        f.write(doc)
+
+
+def main(argv: Sequence[str] | None = None) -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    parser.add_argument("--networks", nargs="+", default=list(NETWORKS), choices=list(NETWORKS))
+    parser.add_argument("--resolutions", nargs="+", type=int, default=[64, 32])
+    parser.add_argument("--steps", type=int, default=4, help="T, steps per trajectory")
+    parser.add_argument("--envs", type=int, default=8, help="B, environments")
+    parser.add_argument("--repeats", type=int, default=5)
+    parser.add_argument("--write", action="store_true", help="update docs/benchmarks.md")
+    args = parser.parse_args(argv)
+    rows = []
+    for name in args.networks:
+        for size in args.resolutions:
+            sps = benchmark(name, size, args.steps, args.envs, args.repeats)
+            rows.append((name, size, sps))
+            print(f"{name:15s} {size:3d}x{size:<3d} {sps:9.1f} samples/s", flush=True)
+    table = ["| network | resolution | forward + backward samples/s |", "|---|---|---|"]
+    table += [f"| {n} | {s}x{s} | {v:.1f} |" for n, s, v in rows]
+    text = "\n".join([
+        SECTION, "",
+        "Command: `python -m sc2jax.experiments.benchmark_networks --write` "
+        f"(T={args.steps}, B={args.envs}: {args.steps * args.envs} samples per step; "
+        f"median of {args.repeats} timed calls after a warm-up; all 27 screen and 11 "
+        "minimap layers; one jitted gradient of the A3C loss).", "",
+        f"Machine: CPU, `nproc` = {os.cpu_count()}, {_cpu_model()}; jax {jax.__version__} "
+        f"({jax.default_backend()}). Date: {datetime.date.today().isoformat()}.", "",
+        "GPU: not measured in this session.", "", *table, ""])
+    if args.write:
+        write_section(text)
+    print(text)
+
+
+if __name__ == "__main__":
+    main()
