@@ -79,8 +79,12 @@ class _Context:
                                 action.screen)
         screen_point = camera.pixel_to_world(state.camera, action.screen)
         minimap_point = renderer.minimap.pixel_to_world(action.minimap)
-        self.point = jnp.where(jnp.asarray(IS_MINIMAP)[action.function], minimap_point,
-                               screen_point)
+        # Units stay inside the playable area, so a target point outside it stands for
+        # the nearest point inside (where the unit stops and its order ends).
+        x0, y0, x1, y1 = renderer.geometry.playable
+        self.point = jnp.clip(
+            jnp.where(jnp.asarray(IS_MINIMAP)[action.function], minimap_point, screen_point),
+            jnp.array([x0, y0], jnp.float32), jnp.array([x1, y1], jnp.float32))
         # Units can be targeted on the screen only.
         self.enemy_under = jnp.where(
             jnp.asarray(IS_MINIMAP)[action.function], False,
