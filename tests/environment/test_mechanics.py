@@ -210,6 +210,19 @@ def test_queued_move_runs_after_the_first():
     assert int(state.units.orders[0, 0]) == Order.NONE
 
 
+def test_move_beyond_the_playable_area_stops_at_its_edge():
+    # Minimap pixel (16, 31) is world (16.5 * 2, 64 - 31.5 * 2) = (33, 1), below the
+    # playable area (10, 12)-(54, 44): the marine at (33, 14) goes to (33, 12), 2 away:
+    # 1.125 in the first step, there on loop ceil(2 / 0.140625) = 15, and the order ends.
+    step, state = move_scene(marine_xy=(33.0, 14.0))
+    state, _ = act(step, state, FUNCTIONS.Move_minimap("now", (16, 31)))
+    np.testing.assert_allclose(state.units.order_pos[0, 0], (33.0, 12.0))
+    np.testing.assert_allclose(pos(state, 0), (33.0, 12.875), atol=1e-5)
+    state, _ = no_op(step, state)
+    np.testing.assert_allclose(pos(state, 0), (33.0, 12.0), atol=1e-5)
+    assert int(state.units.orders[0, 0]) == Order.NONE
+
+
 def test_queued_command_on_an_idle_unit_starts_at_once():
     step, state = move_scene()
     state, _ = act(step, state, FUNCTIONS.Move_screen("queued", (20, 11)))
@@ -775,6 +788,13 @@ def test_find_and_defeat_zerglings_kill_and_loss():
     assert int(ts.step_type) == dm_env.StepType.LAST and float(ts.discount) == 0.0
 
 
-def test_scenes_share_one_compiled_step():
-    # Every scene above has the avals of a reset state: the step never recompiled.
-    assert compiled(small_sim(MAP))[1]._cache_size() == 1
+def test_scenes_reuse_the_compiled_step():
+    # A scene has exactly the avals of a reset state, so stepping it never recompiles.
+    reset, step = compiled(small_sim(MAP))
+    state, _ = reset(jax.random.PRNGKey(1), PARAMS)
+    act(step, state, FUNCTIONS.no_op())
+    size = step._cache_size()
+    _, state = move_scene()
+    act(step, set_unit(state, 0, health=1.0, order=(Order.MOVE, (40.0, 30.0))),
+        FUNCTIONS.no_op())
+    assert step._cache_size() == size
