@@ -382,6 +382,31 @@ def test_select_rect_with_and_without_add():
     assert available(ts) == UI_ONLY
 
 
+def test_select_unit_and_select_army():
+    # Marines 0, 1, 2 and the SCV (slot 6) selected: the multi-select panel lists them
+    # in slot order, so select_unit's index 3 is the SCV.
+    step, state = selection_scene(selected=(True, True, True))
+    state = set_unit(with_scv(state), 6, selected=True)
+    state, ts = act(step, state, FUNCTIONS.select_unit("deselect_all_type", 3))
+    assert selected_slots(state) == {0, 1, 2}
+    state = set_unit(state, 6, selected=True)
+    state, ts = act(step, state, FUNCTIONS.select_unit("deselect", 1))
+    assert selected_slots(state) == {0, 2, 6}
+    assert ts.observation["multi_select"][:4, 0].tolist() == [MARINE_ID, MARINE_ID, SCV_ID, 0]
+    state, ts = act(step, state, FUNCTIONS.select_unit("select_all_type", 0))
+    assert selected_slots(state) == {0, 2}
+    state, ts = act(step, state, FUNCTIONS.select_unit("select", 1))
+    assert selected_slots(state) == {2}
+    assert 5 not in available(ts)  # One unit: no multi-select panel.
+    # select_army: every army unit, on screen or not (marine 5); the SCV is no army.
+    state = set_unit(state, 6, selected=True)
+    state, ts = act(step, state, FUNCTIONS.select_army("select"))
+    assert selected_slots(state) == {0, 1, 2, 5}
+    state, ts = act(step, state, FUNCTIONS.select_point("select", SCV_PX))
+    state, ts = act(step, state, FUNCTIONS.select_army("add"))
+    assert selected_slots(state) == {0, 1, 2, 5, 6}
+
+
 def test_control_groups():
     step, state = selection_scene()
 
@@ -628,6 +653,20 @@ def test_attack_screen_on_an_enemy_is_attack_unit():
     assert not bool(state.units.alive[3])
     assert int(state.units.orders[0, 0]) == Order.NONE
     assert int(ts.observation["score_cumulative"][0]) == 1  # +1 for the zergling.
+
+
+def test_smart_attacks_an_enemy_and_moves_on_the_ground():
+    # Smart (right-click) on the zergling's pixel is an attack-unit order; on empty
+    # ground, pixel (20, 11) = (35.375, 28.375), a move.
+    zerg = pixel_centre(CAM, *ZERG_PX)
+    step, state = fight_scene(zerg)
+    state, _ = act(step, state, FUNCTIONS.Smart_screen("now", ZERG_PX))
+    assert int(state.units.orders[0, 0]) == Order.ATTACK_UNIT
+    assert int(state.units.order_unit[0, 0]) == 3
+    state, ts = act(step, state, FUNCTIONS.Smart_screen("now", (20, 11)))
+    assert int(state.units.orders[0, 0]) == Order.MOVE
+    np.testing.assert_allclose(state.units.order_pos[0, 0], GOAL)
+    assert list(ts.observation["last_actions"][:1]) == [FUNCTIONS.Smart_screen.id]
 
 
 def test_attack_move_fights_on_the_way_but_move_does_not():
