@@ -670,9 +670,9 @@ def test_smart_attacks_an_enemy_and_moves_on_the_ground():
 
 
 def test_attack_move_fights_on_the_way_but_move_does_not():
-    # Marine at (20, 28), zergling 3 holding at (30, 28) on the way to (40, 28) = the
-    # centre of pixel... the goal is given on the minimap: pixel (20, 18) is
-    # (41, 27) -> the marine walks along y ~ 28 towards it.
+    # The goal is given on the minimap: pixel (20, 18) is (20.5 * 2, 64 - 18.5 * 2) =
+    # (41, 27). The marine walks from (20, 27) along y = 27, passing 1.0 from zergling 3,
+    # which holds at (30, 28) (gap 0.25: no collision, beyond the zergling's 0.1 reach).
     step, state = fight_scene((30.0, 28.0), marine_xy=(20.0, 27.0))
     state, _ = act(step, state, FUNCTIONS.Move_minimap("now", (20, 18)))
     np.testing.assert_allclose(state.units.order_pos[0, 0], (41.0, 27.0))
