@@ -100,8 +100,10 @@ class FullyConvLSTM(nn.Module):
         flat = {k: jnp.reshape(v, (t * b,) + jnp.shape(v)[2:]) for k, v in obs.items()}
         state = FullyConvTorso(self.spec, name="torso")(flat)
         state = state.reshape((t, b) + state.shape[1:])
+        # Fully unrolled: XLA's CPU backend runs convolutions (and their gradients) inside
+        # a while loop about 40x slower than unrolled, and compiles them slower too.
         scan = nn.scan(ResettingConvLSTM, variable_broadcast="params",
-                       split_rngs={"params": False}, in_axes=0, out_axes=0)
+                       split_rngs={"params": False}, in_axes=0, out_axes=0, unroll=True)
         carry, h = scan(self.lstm_features, self.kernel_size, name="conv_lstm")(
             carry, (state, first))
         out = FullyConvHeads(self.spec, self.hidden, name="heads")(
