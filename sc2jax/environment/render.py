@@ -48,6 +48,18 @@ PACKING = {
 Values beyond a field's bits are clipped (hit points at 8191, energy at 1023, shields at
 2047; no unit reaches these)."""
 
+TERRAIN_PACKING = {
+    "height_map": (0, 8),
+    "pathable": (8, 1),
+    "buildable": (9, 1),
+    "visibility_map": (10, 2),
+    "camera": (12, 1),
+}
+"""Map layer -> (bit shift, bits) in the packed map plane of a view."""
+
+DENSITY = {"unit_density": (1, 15), "unit_density_aa": (16, 255)}
+"""Density layer -> (multiplier, cap) applied to the number of units at a pixel."""
+
 
 def player_relative(owner):
     """int32[N] `PlayerRelative` of each owner."""
@@ -102,6 +114,28 @@ def paint(pixel_pos, pixel_radius, rank, shown, size, box: int, with_density: bo
     if with_density:
         density = jnp.zeros((h * w + 1,), jnp.int32).at[index].add(1)[:h * w].reshape(h, w)
     return top, density
+
+
+def sight_grid(units: Units, xs, ys):
+    """bool[H, W]: the points (xs[j], ys[i]) within sight of one of the player's units.
+
+    One unit at a time over [H, W] (the unit loop is unrolled): under `vmap` this stays
+    elementwise over [B, H, W], where an [N, H, W] reduction would be transposed.
+
+    Args:
+      units: the units.
+      xs: float32[W] world x of each column.
+      ys: float32[H] world y of each row.
+    """
+    sight = jnp.asarray(UNIT_DATA.sight)[units.type]
+    eyes = units.alive & (units.owner == Owner.SELF)
+    reach = jnp.where(eyes, sight * sight, -1.0)  # No point is within -1 of anything.
+    dx2 = (xs[None, :] - units.pos[:, 0, None]) ** 2
+    dy2 = (ys[None, :] - units.pos[:, 1, None]) ** 2
+    seen = jnp.zeros((ys.shape[0], xs.shape[0]), bool)
+    for i in range(units.num_slots):
+        seen = seen | (dy2[i][:, None] + dx2[i][None, :] <= reach[i])
+    return seen
 
 
 def box_size(max_radius_pixels: float) -> int:
@@ -170,96 +204,128 @@ class Renderer:
         d2 = jnp.sum((xy[..., None, :] - units.pos) ** 2, axis=-1)
         return jnp.any(eyes & (d2 <= sight * sight), axis=-1)
 
-    def _visibility(self, state: EnvState, xs, ys):
-        """int32[H, W] visibility of world columns xs and rows ys."""
-        x0, y0, x1, y1 = self.geometry.playable
-        in_play = ((ys >= y0) & (ys < y1))[:, None] & ((xs >= x0) & (xs < x1))[None, :]
+    def _visibility(self, state: EnvState, xs, ys, in_play):
+        """int32[H, W] visibility of world columns xs and rows ys (in_play: bool[H, W])."""
         if not self.fog:
             return jnp.where(in_play, int(Visibility.VISIBLE), int(Visibility.HIDDEN))
-        units = state.units
-        sight = jnp.asarray(UNIT_DATA.sight)[units.type]
-        eyes = units.alive & (units.owner == Owner.SELF)
-        d2 = ((ys[None, :, None] - units.pos[:, 1, None, None]) ** 2
-              + (xs[None, None, :] - units.pos[:, 0, None, None]) ** 2)
-        visible = jnp.any(eyes[:, None, None] & (d2 <= (sight * sight)[:, None, None]), axis=0)
+        visible = sight_grid(state.units, xs, ys)
         explored = cell_lookup(state.explored, self.geometry.size[1], xs, ys, False)
         out = jnp.where(visible, int(Visibility.VISIBLE),
                         jnp.where(explored, int(Visibility.SEEN), int(Visibility.HIDDEN)))
         return jnp.where(in_play, out, int(Visibility.HIDDEN)).astype(jnp.int32)
 
-    def _terrain(self, grid, xs, ys):
-        return cell_lookup(grid, self.geometry.size[1], xs, ys, 0).astype(jnp.int32)
+    def _terrain_plane(self, state: EnvState, xs, ys, names, extra_bits: dict):
+        """int32[H, W]: the map layers of one view packed into one plane (`TERRAIN_PACKING`).
+
+        The static grids are packed into one grid first, so the view needs one lookup.
+        """
+        g = self.geometry
+        plane = None
+        if {"height_map", "pathable", "buildable"} & set(names):
+            packed = (g.height_map.astype(np.int32)
+                      | (g.pathable.astype(np.int32) << TERRAIN_PACKING["pathable"][0])
+                      | (g.buildable.astype(np.int32) << TERRAIN_PACKING["buildable"][0]))
+            plane = cell_lookup(packed, g.size[1], xs, ys, 0)
+        if "visibility_map" in names:
+            x0, y0, x1, y1 = g.playable
+            in_play = ((ys >= y0) & (ys < y1))[:, None] & ((xs >= x0) & (xs < x1))[None, :]
+            visibility = self._visibility(state, xs, ys, in_play)
+            shifted = visibility.astype(jnp.int32) << TERRAIN_PACKING["visibility_map"][0]
+            plane = shifted if plane is None else plane | shifted
+        for name, bits in extra_bits.items():
+            if name in names:
+                shifted = bits().astype(jnp.int32) << TERRAIN_PACKING[name][0]
+                plane = shifted if plane is None else plane | shifted
+        return plane
 
     def _draw(self, state: EnvState, names, size, pixel_pos, pixel_radius, box, xs, ys,
-              extra: dict):
+              extra_bits: dict):
         """Renders the named layers of one view (screen or minimap).
+
+        Every layer is a bit field of one of a few int32 planes: the packed per-unit words
+        of the top unit at each pixel (`PACKING`), the unit density, and the packed map
+        layers (`TERRAIN_PACKING`). The planes are computed once and the layers are cut
+        out of them in one pass that writes the output directly.
 
         Args:
           state: the state.
-          names: the layer names, in output order.
+          names: the layer names, in output order (unknown names are zero layers).
           size: (width, height) in pixels.
           pixel_pos, pixel_radius: the units in this view's pixels.
           box: the `paint` window.
           xs, ys: world x of each column and y of each row.
-          extra: name -> () -> int32[H, W] for layers specific to this view.
+          extra_bits: name -> () -> int[H, W] for 0/1 layers specific to this view.
 
         Returns:
           int32[len(names), H, W].
         """
         units = state.units
-        per_unit = self._unit_values(units)
-        unit_names = [name for name in names if name in per_unit]
-        wants_density = any(name.startswith("unit_density") for name in names)
-        top = density = None
+        unit_names = [name for name in names
+                      if name in PACKING and name not in self.zero_layers]
+        wants_density = any(name in DENSITY for name in names)
+        planes: dict[str, jnp.ndarray] = {}
         if unit_names or wants_density:
             top, density = paint(pixel_pos, pixel_radius, draw_rank(units),
                                  self.units_shown(state), size, box, wants_density)
-        if unit_names:
-            drawn = self._gather_unit_layers(units, unit_names, top)
-        g = self.geometry
-        layers = {
-            "height_map": lambda: self._terrain(g.height_map, xs, ys),
-            "visibility_map": lambda: self._visibility(state, xs, ys),
-            "pathable": lambda: self._terrain(g.pathable, xs, ys),
-            "buildable": lambda: self._terrain(g.buildable, xs, ys),
-            "unit_density": lambda: jnp.minimum(density, 15),
-            "unit_density_aa": lambda: jnp.minimum(density * 16, 255),
-            **extra,
-        }
-        for name in unit_names:
-            layers[name] = lambda name=name: drawn[name]
-        zeros = lambda: jnp.zeros(size[::-1], jnp.int32)  # noqa: E731
-        return jnp.stack([layers.get(name, zeros)() for name in names]).astype(jnp.int32)
+            if wants_density:
+                planes["density"] = density
+            planes.update(self._unit_words(units, unit_names, top))
+        terrain = self._terrain_plane(state, xs, ys, names, extra_bits)
+        if terrain is not None:
+            planes["terrain"] = terrain
+        order = list(planes)
+        source, shift, mask, multiplier, cap = [], [], [], [], []
+        for name in names:
+            if name in unit_names:
+                word, bit, bits = PACKING[name]
+                plane, scale, top_value = f"word{word}", 1, None
+            elif name in DENSITY:
+                plane, bit, bits = "density", 0, 31
+                scale, top_value = DENSITY[name]
+            elif name in TERRAIN_PACKING and terrain is not None:
+                plane, (bit, bits), scale, top_value = "terrain", TERRAIN_PACKING[name], 1, None
+            else:  # A layer that is zero on these maps.
+                plane, bit, bits, scale, top_value = None, 0, 0, 1, None
+            source.append(order.index(plane) if plane is not None else 0)
+            shift.append(bit)
+            mask.append((1 << bits) - 1)
+            multiplier.append(scale)
+            cap.append(np.iinfo(np.int32).max if top_value is None else top_value)
+        w, h = size
+        if not order:
+            return jnp.zeros((len(names), h, w), jnp.int32)
+        column = lambda v: np.asarray(v, np.int32)[:, None, None]  # noqa: E731
+        stacked = jnp.stack([planes[p].astype(jnp.int32) for p in order])
+        layers = jnp.right_shift(stacked[np.asarray(source)], column(shift)) & column(mask)
+        if any(m != 1 for m in multiplier):
+            layers = jnp.minimum(layers * column(multiplier), column(cap))
+        return layers
 
-    def _gather_unit_layers(self, units: Units, names, top) -> dict:
-        """Looks up the per-unit layers at each pixel's top unit.
+    def _unit_words(self, units: Units, names, top) -> dict:
+        """The packed per-unit words (`PACKING`) of each pixel's top unit.
 
-        Layers are bit-packed into at most three int32 words per unit (`PACKING`), so a
-        pixel needs one table lookup per word rather than one per layer. Layers that are
-        zero for every unit type of the map (energy and shields on these maps) cost no
-        lookup.
+        Layers are bit-packed into at most three int32 words per unit, so a pixel needs one
+        table lookup per word rather than one per layer. Layers that are zero for every
+        unit type of the map (energy and shields on these maps) cost no lookup.
+
+        Returns:
+          "word{k}" -> int32[H, W], for the words `names` use.
         """
         n = units.num_slots
         per_unit = self._unit_values(units)
         rows = jnp.where(top >= 0, top % n, n)
-        out = {}
         words: dict[int, list[str]] = {}
         for name in names:
-            if name in self.zero_layers:
-                out[name] = jnp.zeros(top.shape, jnp.int32)
-            else:
-                words.setdefault(PACKING[name][0], []).append(name)
-        for fields in words.values():
+            words.setdefault(PACKING[name][0], []).append(name)
+        out = {}
+        for word, fields in sorted(words.items()):
             packed = jnp.zeros(n, jnp.int32)
             for name in fields:
                 _, shift, bits = PACKING[name]
                 value = jnp.clip(per_unit[name](), 0, (1 << bits) - 1)
                 packed = packed | jnp.left_shift(value.astype(jnp.int32), shift)
             table = jnp.concatenate([packed, jnp.zeros(1, jnp.int32)])
-            pixels = table[rows]
-            for name in fields:
-                _, shift, bits = PACKING[name]
-                out[name] = jnp.right_shift(pixels, shift) & ((1 << bits) - 1)
+            out[f"word{word}"] = table[rows]
         return out
 
     def screen(self, state: EnvState):

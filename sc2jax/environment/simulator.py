@@ -12,6 +12,7 @@ episode instead and returns FIRST, as dm_env (and PySC2) do. Batch with `jax.vma
 from __future__ import annotations
 
 import dataclasses
+from collections.abc import Callable
 
 import dm_env
 import jax
@@ -27,9 +28,52 @@ from sc2jax.environment.dynamics import game_loop
 from sc2jax.environment.minigames import get_map
 from sc2jax.environment.observation import observe
 from sc2jax.environment.observation_tables import ScoreCumulative
-from sc2jax.environment.render import Renderer
+from sc2jax.environment.render import Renderer, sight_grid
 from sc2jax.environment.state import NUM_SCORE_CUMULATIVE, EnvState, Outcome, Owner
 from sc2jax.environment.units import UNIT_DATA
+
+
+def reset_where(initial: Callable[[jax.Array], EnvState], over, key, state: EnvState):
+    """`initial(key)` where `over`, else `state`; the auto-reset of `Simulator.step`.
+
+    Equal to `where(over, initial(key), state)` but computes the initial state only when
+    it is used: unbatched through `lax.cond`, and under `vmap` (where a `cond` on a
+    batched predicate would compute both branches for every environment) for the whole
+    batch when any environment of it starts a new episode, and not at all otherwise.
+
+    Args:
+      initial: key -> the initial state of an episode.
+      over: bool scalar, whether to start a new episode.
+      key: the key of the new episode.
+      state: the state to keep otherwise.
+
+    Returns:
+      The state, of the same structure as `state`.
+    """
+
+    @jax.custom_batching.custom_vmap
+    def select(over, key, state):
+        return jax.lax.cond(over, lambda: initial(key), lambda: state)
+
+    @select.def_vmap
+    def select_batched(axis_size, in_batched, over, key, state):
+        def batched(x, is_batched):
+            return x if is_batched else jnp.broadcast_to(x, (axis_size,) + x.shape)
+
+        over_batched, key_batched, state_batched = in_batched
+        over, key = batched(over, over_batched), batched(key, key_batched)
+        state = jax.tree_util.tree_map(batched, state, state_batched)
+
+        def with_resets():
+            fresh = jax.vmap(initial)(key)
+            return jax.tree_util.tree_map(
+                lambda a, b: jnp.where(over.reshape((-1,) + (1,) * (a.ndim - 1)), a, b),
+                fresh, state)
+
+        out = jax.lax.cond(jnp.any(over), with_resets, lambda: state)
+        return out, jax.tree_util.tree_map(lambda _: True, out)
+
+    return select(over, key, state)
 
 
 @struct.dataclass
@@ -126,8 +170,7 @@ class Simulator:
         over = self.episode_over(state, params)
         reset_key, step_key = jax.random.split(state.key)
         advanced = self._advance(state.replace(key=step_key), action)
-        fresh = self._initial_state(reset_key)
-        new = jax.tree_util.tree_map(lambda a, b: jnp.where(over, a, b), fresh, advanced)
+        new = reset_where(self._initial_state, over, reset_key, advanced)
         ended = self.episode_over(new, params)
         terminated = new.outcome != Outcome.RUNNING
         step_type = jnp.where(over, dm_env.StepType.FIRST,
@@ -220,10 +263,4 @@ class Simulator:
         w, h = self.game.geometry.size
         xs = jnp.arange(w, dtype=jnp.float32) + 0.5
         ys = h - 1 - jnp.arange(h, dtype=jnp.float32) + 0.5
-        units = state.units
-        sight = jnp.asarray(UNIT_DATA.sight)[units.type]
-        eyes = units.alive & (units.owner == Owner.SELF)
-        d2 = ((ys[None, :, None] - units.pos[:, 1, None, None]) ** 2
-              + (xs[None, None, :] - units.pos[:, 0, None, None]) ** 2)
-        seen = jnp.any(eyes[:, None, None] & (d2 <= (sight * sight)[:, None, None]), axis=0)
-        return state.replace(explored=state.explored | seen)
+        return state.replace(explored=state.explored | sight_grid(state.units, xs, ys))
