@@ -123,5 +123,6 @@ def run_episodes(sim: Simulator, policy: Policy, episodes: int, num_envs: int = 
         scores.append(score.astype(np.float64))
         steps.append(length.astype(np.int64))
         if on_batch is not None:
-            on_batch(EpisodeStats(np.concatenate(scores), np.concatenate(steps)))
+            on_batch(EpisodeStats(np.concatenate(scores)[:episodes],
+                                  np.concatenate(steps)[:episodes]))
     return EpisodeStats(np.concatenate(scores)[:episodes], np.concatenate(steps)[:episodes])
