@@ -150,11 +150,13 @@ def scripted_policy(map_name: str, fmt: ObservationFormat) -> Policy:
       ValueError: for a map without a scripted agent, or a format lacking what the
         agent reads (feature units, or the minimap layers it uses).
     """
-    if map_name in ("MoveToBeacon", "CollectMineralShards"):
-        if not fmt.use_feature_units:
-            raise ValueError(f"the {map_name} scripted agent reads feature_units; build the "
-                             f"environment with use_feature_units=True")
-        return move_to_beacon if map_name == "MoveToBeacon" else collect_mineral_shards
+    if required_format(map_name).get("use_feature_units") and not fmt.use_feature_units:
+        raise ValueError(f"the {map_name} scripted agent reads feature_units; build the "
+                         f"environment with use_feature_units=True")
+    if map_name == "MoveToBeacon":
+        return move_to_beacon
+    if map_name == "CollectMineralShards":
+        return collect_mineral_shards
     if map_name == "FindAndDefeatZerglings":
         names = [f.name for f in fmt.minimap_layers]
         needed = ("player_relative", "visibility_map", "pathable")
