@@ -1,0 +1,164 @@
+"""Actors: a policy core of pure functions, and a compiled K-step unroll on the simulator.
+
+`ActorCore` is what any actor needs from a network: an initial recurrent carry and a
+jittable `act(params, key, carry, observation, first)` that samples an action and its
+behaviour log-probability. The compiled actor (`make_unroll`) steps a batch of
+simulator environments with it for K steps inside `lax.scan` and emits a `Trajectory`
+for the learner; a host actor (`host_actor.py`) drives non-JAX environments with the
+same core and emits the same `Trajectory`.
+
+Episode boundaries follow dm_env: a step from a LAST observation starts a new episode
+and returns its FIRST observation (reward 0, discount 0). The learner therefore sees
+the LAST observation as an absorbing state whose value target is 0; the action taken
+there is ignored by the game and, with a value close to 0, carries almost no gradient.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from typing import Any, NamedTuple
+
+import dm_env
+import flax.linen as nn
+import jax
+import jax.numpy as jnp
+from flax import struct
+
+from sc2jax.environment.dense import DenseAction
+from sc2jax.environment.simulator import Simulator
+from sc2jax.losses.learner_loss import Trajectory
+from sc2jax.networks import policy
+from sc2jax.networks.factory import act as feed_forward_act
+from sc2jax.networks.fully_conv_lstm import FullyConvLSTM
+
+
+class ActorCore(NamedTuple):
+    """A network's acting functions.
+
+    Attributes:
+      initial_carry: batch size -> the recurrent carry before any step (None for
+        feed-forward networks).
+      act: `(params, key, carry, observation, first) -> (carry, action, log_prob)` with
+        observation leaves [B, ...], first bool[B] (True at an episode's first
+        observation), the sampled `DenseAction` [B] and its log-probability float32[B].
+    """
+
+    initial_carry: Callable[[int], Any]
+    act: Callable[..., tuple[Any, DenseAction, jax.Array]]
+
+
+def actor_core(network: nn.Module, temperature: float = 1.0) -> ActorCore:
+    """The acting functions of any of the four networks.
+
+    Args:
+      network: an AtariNet, FullyConv, FullyConvLSTM or ARFullyConv.
+      temperature: softmax temperature of the sampled actions (> 0).
+
+    Raises:
+      ValueError: for a non-positive temperature.
+    """
+    if not temperature > 0:
+        raise ValueError(f"temperature must be > 0, got {temperature!r}")
+    if isinstance(network, FullyConvLSTM):
+        def act_lstm(params, key, carry, obs, first):
+            carry, out = network.apply(params, carry, obs, first, method="step")
+            action = policy.sample(key, out, obs["available_actions"], temperature)
+            return carry, action, policy.log_prob(out, action, obs["available_actions"]).total
+
+        return ActorCore(network.initial_carry, act_lstm)
+
+    def act(params, key, carry, obs, first):
+        del first
+        action, out = feed_forward_act(network, params, key, obs, temperature)
+        return carry, action, policy.log_prob(out, action, obs["available_actions"]).total
+
+    return ActorCore(lambda batch_size: None, act)
+
+
+class ActorState(struct.PyTreeNode):
+    """The compiled actor's state for B environments.
+
+    Attributes:
+      env_state: the simulator states, leaves [B, ...].
+      timestep: the last `dm_env.TimeStep` of each environment, leaves [B, ...].
+      carry: the recurrent carry (None for feed-forward networks).
+      episode_return: float32[B] the running return of each environment's episode.
+      key: the actor's PRNG key.
+    """
+
+    env_state: Any
+    timestep: dm_env.TimeStep
+    carry: Any
+    episode_return: jax.Array
+    key: jax.Array
+
+
+class EpisodeLog(NamedTuple):
+    """Episodes that ended during an unroll.
+
+    Attributes:
+      ended: bool[T, B] an episode ended (LAST) at this step.
+      score: float32[T, B] its return where `ended` (0 elsewhere).
+    """
+
+    ended: jax.Array
+    score: jax.Array
+
+
+class Unroll(NamedTuple):
+    """The compiled actor: `init(key, num_envs) -> ActorState` and
+    `unroll(params, state) -> (state, Trajectory [T], EpisodeLog [T])`."""
+
+    init: Callable[[jax.Array, int], ActorState]
+    unroll: Callable[[Any, ActorState], tuple[ActorState, Trajectory, EpisodeLog]]
+
+
+def make_unroll(sim: Simulator, core: ActorCore, unroll_length: int) -> Unroll:
+    """Builds the compiled actor for a simulator (pure, jittable and vmappable).
+
+    Args:
+      sim: the simulator.
+      core: the acting functions.
+      unroll_length: K, the steps per trajectory (40 in the paper).
+
+    Raises:
+      ValueError: for a non-positive `unroll_length`.
+    """
+    if isinstance(unroll_length, bool) or not isinstance(unroll_length, int) or unroll_length < 1:
+        raise ValueError(f"unroll_length must be a positive int, got {unroll_length!r}")
+    reset = jax.vmap(sim.reset)
+    step = jax.vmap(sim.step)
+
+    def init(key: jax.Array, num_envs: int) -> ActorState:
+        env_key, key = jax.random.split(key)
+        env_state, timestep = reset(jax.random.split(env_key, num_envs))
+        return ActorState(env_state, timestep, core.initial_carry(num_envs),
+                          jnp.zeros(num_envs, jnp.float32), key)
+
+    def one_step(params, state: ActorState, _):
+        key, act_key = jax.random.split(state.key)
+        obs, first = state.timestep.observation, state.timestep.first()
+        carry, action, log_prob = core.act(params, act_key, state.carry, obs, first)
+        env_state, ts = step(state.env_state, action)
+        episode_return = state.episode_return + ts.reward
+        last = ts.last()
+        record = dict(observation=obs, first=first, action=action, reward=ts.reward,
+                      discount=ts.discount, log_prob=log_prob,
+                      episode=EpisodeLog(last, jnp.where(last, episode_return, 0.0)))
+        episode_return = jnp.where(last | ts.first(), 0.0, episode_return)
+        return ActorState(env_state, ts, carry, episode_return, key), record
+
+    def unroll(params, state: ActorState):
+        initial_carry = state.carry
+        state, rec = jax.lax.scan(lambda s, x: one_step(params, s, x), state, None,
+                                  length=unroll_length)
+        observation = jax.tree.map(lambda xs, x: jnp.concatenate([xs, x[None]]),
+                                   rec["observation"], state.timestep.observation)
+        first = jnp.concatenate([rec["first"], state.timestep.first()[None]])
+        trajectory = Trajectory(observation=observation, action=rec["action"],
+                                reward=rec["reward"], discount=rec["discount"], first=first,
+                                behaviour_log_prob=rec["log_prob"],
+                                initial_carry=initial_carry)
+        return state, trajectory, rec["episode"]
+
+    return Unroll(init, unroll)

@@ -1,0 +1,128 @@
+"""The learner: one jitted update of the actor-critic loss with the paper's RMSProp.
+
+    learner = make_learner(network, loss_fn, config)
+    state = learner.init(key, dummy_observation)
+    state, metrics = learner.update(state, trajectory)
+
+The optimiser is RMSProp on globally clipped gradients, with a learning rate annealed
+linearly from its initial value to half of it over the run (paper §4.3). One optimiser
+state serves every actor: the paper's shared RMSProp. The initial learning rate is
+part of `LearnerState`, not of the compiled function, so a sweep vmaps one program
+over runs with different rates.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from collections.abc import Callable, Mapping
+from typing import Any, NamedTuple
+
+import flax.linen as nn
+import jax
+import jax.numpy as jnp
+import optax
+from flax import struct
+
+from sc2jax.losses.learner_loss import LossFn, Trajectory
+from sc2jax.networks.fully_conv_lstm import FullyConvLSTM
+
+
+@dataclasses.dataclass(frozen=True)
+class OptimiserConfig:
+    """RMSProp settings.
+
+    Attributes:
+      decay: RMSProp's squared-gradient decay.
+      epsilon: added to the RMS denominator.
+      max_grad_norm: gradients are clipped to this global norm (0: no clipping).
+      anneal_updates: updates over which the learning rate falls linearly to half its
+        initial value (then stays there).
+    """
+
+    decay: float = 0.99
+    epsilon: float = 1e-5
+    max_grad_norm: float = 10.0
+    anneal_updates: int = 1
+
+    def __post_init__(self):
+        if not 0.0 <= self.decay < 1.0:
+            raise ValueError(f"decay must be in [0, 1), got {self.decay!r}")
+        if not self.epsilon > 0:
+            raise ValueError(f"epsilon must be > 0, got {self.epsilon!r}")
+        if not self.max_grad_norm >= 0:
+            raise ValueError(f"max_grad_norm must be >= 0, got {self.max_grad_norm!r}")
+        if isinstance(self.anneal_updates, bool) or not isinstance(
+                self.anneal_updates, int) or self.anneal_updates < 1:
+            raise ValueError(f"anneal_updates must be a positive int, got "
+                             f"{self.anneal_updates!r}")
+
+
+class LearnerState(struct.PyTreeNode):
+    """Parameters, optimiser state and counters (a pytree; vmap it over runs).
+
+    Attributes:
+      params: the network parameters.
+      opt_state: the RMSProp state.
+      update: int32 updates done.
+      learning_rate: float32 the initial learning rate of this run.
+    """
+
+    params: Any
+    opt_state: Any
+    update: jax.Array
+    learning_rate: jax.Array
+
+
+class Learner(NamedTuple):
+    """`init(key, observation, learning_rate) -> LearnerState` (observation leaves
+    [B, ...]) and `update(state, trajectory) -> (state, metrics)`."""
+
+    init: Callable[..., LearnerState]
+    update: Callable[[LearnerState, Trajectory], tuple[LearnerState, dict[str, jax.Array]]]
+
+
+def annealed_learning_rate(initial: jax.Array, update: jax.Array,
+                           anneal_updates: int) -> jax.Array:
+    """The paper's schedule: linear from `initial` to `initial / 2` over `anneal_updates`."""
+    fraction = jnp.minimum(update.astype(jnp.float32) / anneal_updates, 1.0)
+    return initial * (1.0 - 0.5 * fraction)
+
+
+def init_params(network: nn.Module, key: jax.Array, observation: Mapping[str, jax.Array]):
+    """Initialises any of the four networks from a batch of observations [B, ...]."""
+    if isinstance(network, FullyConvLSTM):
+        batch = jnp.shape(observation["available_actions"])[0]
+        obs = jax.tree.map(lambda x: jnp.asarray(x)[None], dict(observation))
+        return network.init(key, network.initial_carry(batch), obs, jnp.zeros((1, batch), bool))
+    return network.init(key, dict(observation))
+
+
+def make_learner(network: nn.Module, loss_fn: LossFn, config: OptimiserConfig) -> Learner:
+    """Builds the learner of a network and its loss.
+
+    Args:
+      network: the network the loss was built for.
+      loss_fn: `(params, trajectory) -> (loss, metrics)`
+        (`losses.make_actor_critic_loss`).
+      config: the optimiser settings.
+    """
+    transforms = [optax.scale_by_rms(decay=config.decay, eps=config.epsilon)]
+    if config.max_grad_norm > 0:
+        transforms.insert(0, optax.clip_by_global_norm(config.max_grad_norm))
+    direction = optax.chain(*transforms)
+
+    def init(key, observation, learning_rate) -> LearnerState:
+        params = init_params(network, key, observation)
+        return LearnerState(params, direction.init(params), jnp.int32(0),
+                            jnp.asarray(learning_rate, jnp.float32))
+
+    def update(state: LearnerState, trajectory: Trajectory):
+        grad_fn = jax.grad(loss_fn, has_aux=True)
+        grads, metrics = grad_fn(state.params, trajectory)
+        steps, opt_state = direction.update(grads, state.opt_state, state.params)
+        rate = annealed_learning_rate(state.learning_rate, state.update, config.anneal_updates)
+        params = optax.apply_updates(state.params, jax.tree.map(lambda s: -rate * s, steps))
+        metrics = dict(metrics, learning_rate=rate, grad_norm=optax.global_norm(grads))
+        return LearnerState(params, opt_state, state.update + 1, state.learning_rate), metrics
+
+    return Learner(init, update)
