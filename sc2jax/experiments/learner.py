@@ -33,7 +33,9 @@ class OptimiserConfig:
 
     Attributes:
       decay: RMSProp's squared-gradient decay.
-      epsilon: added to the RMS denominator.
+      epsilon: added to the RMS, outside the square root: g / (sqrt(E[g²]) + ε). (Inside
+        the root, as optax's default, ε = 1e-5 would floor the denominator at 3e-3 and
+        shrink the steps of this loss's small gradients a hundredfold.)
       max_grad_norm: gradients are clipped to this global norm (0: no clipping).
       anneal_updates: updates over which the learning rate falls linearly to half its
         initial value (then stays there).
@@ -106,7 +108,7 @@ def make_learner(network: nn.Module, loss_fn: LossFn, config: OptimiserConfig) -
         (`losses.make_actor_critic_loss`).
       config: the optimiser settings.
     """
-    transforms = [optax.scale_by_rms(decay=config.decay, eps=config.epsilon)]
+    transforms = [optax.scale_by_rms(decay=config.decay, eps=config.epsilon, eps_in_sqrt=False)]
     if config.max_grad_norm > 0:
         transforms.insert(0, optax.clip_by_global_norm(config.max_grad_norm))
     direction = optax.chain(*transforms)
