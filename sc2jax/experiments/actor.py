@@ -15,16 +15,18 @@ there is ignored by the game and, with a value close to 0, carries almost no gra
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from typing import Any, NamedTuple
 
 import dm_env
 import flax.linen as nn
 import jax
 import jax.numpy as jnp
+import numpy as np
 from flax import struct
 
 from sc2jax.environment.dense import DenseAction
+from sc2jax.environment.functions import FUNCTIONS, NUM_FUNCTIONS
 from sc2jax.environment.simulator import Simulator
 from sc2jax.losses.learner_loss import Trajectory
 from sc2jax.networks import policy
@@ -41,38 +43,72 @@ class ActorCore(NamedTuple):
       act: `(params, key, carry, observation, first) -> (carry, action, log_prob)` with
         observation leaves [B, ...], first bool[B] (True at an episode's first
         observation), the sampled `DenseAction` [B] and its log-probability float32[B].
+        The observation must have passed through `observe`.
+      observe: environment observation -> the agent's observation (the action set
+        restricted); actors store what it returns, so the learner sees the same masks.
     """
 
     initial_carry: Callable[[int], Any]
     act: Callable[..., tuple[Any, DenseAction, jax.Array]]
+    observe: Callable[[dict], dict]
 
 
-def actor_core(network: nn.Module, temperature: float = 1.0) -> ActorCore:
+def function_mask(functions: Sequence[int | str] | None) -> np.ndarray | None:
+    """bool[573] of the named function ids or names (None: every function).
+
+    Raises:
+      ValueError: for an unknown function, or a set without no_op (which is always
+        available, so that the agent can always act).
+    """
+    if functions is None:
+        return None
+    mask = np.zeros(NUM_FUNCTIONS, bool)
+    for function in functions:
+        if function not in FUNCTIONS:
+            raise ValueError(f"unknown function {function!r}; give PySC2 names or ids "
+                             f"0..{NUM_FUNCTIONS - 1}")
+        mask[FUNCTIONS[function].id] = True
+    if not mask[0]:
+        raise ValueError(f"the action set {list(functions)} must include no_op")
+    return mask
+
+
+def actor_core(network: nn.Module, temperature: float = 1.0,
+               functions: Sequence[int | str] | None = None) -> ActorCore:
     """The acting functions of any of the four networks.
 
     Args:
       network: an AtariNet, FullyConv, FullyConvLSTM or ARFullyConv.
       temperature: softmax temperature of the sampled actions (> 0).
+      functions: restrict the agent to these function names or ids (None: all 573,
+        the paper's setting); they are still masked by availability.
 
     Raises:
-      ValueError: for a non-positive temperature.
+      ValueError: for a non-positive temperature or a bad action set.
     """
     if not temperature > 0:
         raise ValueError(f"temperature must be > 0, got {temperature!r}")
+    mask = function_mask(functions)
+
+    def observe(obs: dict) -> dict:
+        if mask is None:
+            return obs
+        return dict(obs, available_actions=obs["available_actions"] & mask)
+
     if isinstance(network, FullyConvLSTM):
         def act_lstm(params, key, carry, obs, first):
             carry, out = network.apply(params, carry, obs, first, method="step")
             action = policy.sample(key, out, obs["available_actions"], temperature)
             return carry, action, policy.log_prob(out, action, obs["available_actions"]).total
 
-        return ActorCore(network.initial_carry, act_lstm)
+        return ActorCore(network.initial_carry, act_lstm, observe)
 
     def act(params, key, carry, obs, first):
         del first
         action, out = feed_forward_act(network, params, key, obs, temperature)
         return carry, action, policy.log_prob(out, action, obs["available_actions"]).total
 
-    return ActorCore(lambda batch_size: None, act)
+    return ActorCore(lambda batch_size: None, act, observe)
 
 
 class ActorState(struct.PyTreeNode):
@@ -137,7 +173,7 @@ def make_unroll(sim: Simulator, core: ActorCore, unroll_length: int) -> Unroll:
 
     def one_step(params, state: ActorState, _):
         key, act_key = jax.random.split(state.key)
-        obs, first = state.timestep.observation, state.timestep.first()
+        obs, first = core.observe(state.timestep.observation), state.timestep.first()
         carry, action, log_prob = core.act(params, act_key, state.carry, obs, first)
         env_state, ts = step(state.env_state, action)
         episode_return = state.episode_return + ts.reward
@@ -153,7 +189,7 @@ def make_unroll(sim: Simulator, core: ActorCore, unroll_length: int) -> Unroll:
         state, rec = jax.lax.scan(lambda s, x: one_step(params, s, x), state, None,
                                   length=unroll_length)
         observation = jax.tree.map(lambda xs, x: jnp.concatenate([xs, x[None]]),
-                                   rec["observation"], state.timestep.observation)
+                                   rec["observation"], core.observe(state.timestep.observation))
         first = jnp.concatenate([rec["first"], state.timestep.first()[None]])
         trajectory = Trajectory(observation=observation, action=rec["action"],
                                 reward=rec["reward"], discount=rec["discount"], first=first,

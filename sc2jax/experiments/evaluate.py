@@ -2,6 +2,11 @@ r"""Evaluates an agent on a mini-game of the embedded simulator.
 
     python -m sc2jax.experiments.evaluate --map=MoveToBeacon --agent=scripted \
         --episodes=100 --output=/tmp/eval.json
+    python -m sc2jax.experiments.evaluate --run_dir=/tmp/runs/beacon --episodes=100
+
+The agent is random, scripted, or (with `--run_dir`) a trained network restored from
+a training run's last checkpoint (or `--checkpoint_step`), on the run's own map and
+observation format.
 
 Prints the mean, std and max episode score beside the paper's Table 1, and with
 `--output` writes them as JSON: `episodes`, `mean`, `std`, `max`, `min`, `scores` (every
@@ -10,8 +15,6 @@ episode's score) and the resolved `config`.
 
 from __future__ import annotations
 
-import json
-import os
 import sys
 import time
 
@@ -19,7 +22,9 @@ from absl import app, flags
 
 from sc2jax.environment import MAPS, make
 from sc2jax.environment.agents import required_format
-from sc2jax.experiments import evaluation
+from sc2jax.experiments import evaluation, trainer
+from sc2jax.experiments.actor import actor_core
+from sc2jax.experiments.checkpoints import write_json_atomic
 from sc2jax.experiments.paper import paper_rows
 
 _MAP = flags.DEFINE_string("map", "MoveToBeacon", f"Mini-game: one of {sorted(MAPS)}.")
@@ -31,6 +36,11 @@ _MINIMAP = flags.DEFINE_integer("minimap_size", 64, "Feature-minimap resolution 
 _STEP_MUL = flags.DEFINE_integer("step_mul", 8, "Game loops per agent step.")
 _SEED = flags.DEFINE_integer("seed", 0, "Random seed.")
 _OUTPUT = flags.DEFINE_string("output", None, "Write the results as JSON to this file.")
+_RUN_DIR = flags.DEFINE_string("run_dir", None, "Evaluate the network trained in this run "
+                               "directory (its map and format; --agent is ignored).")
+_STEP = flags.DEFINE_integer("checkpoint_step", None, "The run's checkpoint (default: last).")
+_TEMPERATURE = flags.DEFINE_float("temperature", 1.0, "Softmax temperature of a trained "
+                                  "network's actions.")
 
 
 def check_flags() -> None:
@@ -43,16 +53,8 @@ def check_flags() -> None:
     for flag in (_EPISODES, _NUM_ENVS, _STEP_MUL):
         if flag.value < 1:
             raise ValueError(f"--{flag.name} must be >= 1, got {flag.value}")
-
-
-def write_json(path: str, payload: dict) -> None:
-    """Writes JSON atomically (a temporary file renamed over the target)."""
-    directory = os.path.dirname(os.path.abspath(path))
-    os.makedirs(directory, exist_ok=True)
-    tmp = f"{path}.tmp{os.getpid()}"
-    with open(tmp, "w") as f:
-        json.dump(payload, f, indent=1)
-    os.replace(tmp, path)
+    if not _TEMPERATURE.value > 0:
+        raise ValueError(f"--temperature must be > 0, got {_TEMPERATURE.value}")
 
 
 def main(argv) -> None:
@@ -61,34 +63,52 @@ def main(argv) -> None:
         check_flags()
     except ValueError as error:
         sys.exit(f"error: {error}")
-    extra = required_format(_MAP.value) if _AGENT.value == "scripted" else {}
-    env = make(_MAP.value, screen_size=_SCREEN.value, minimap_size=_MINIMAP.value,
-               step_mul=_STEP_MUL.value, **extra)
-    sim = env.simulator
-    policy = evaluation.make_policy(_AGENT.value, sim)
     start = time.time()
+    if _RUN_DIR.value:
+        try:
+            trained, params, meta = trainer.load_run(_RUN_DIR.value, _STEP.value)
+        except (FileNotFoundError, ValueError) as error:
+            sys.exit(f"error: {error}")
+        sim, agent_name, map_name = trained.sim, trained.config.agent, trained.config.map_name
+        core = actor_core(trained.network, _TEMPERATURE.value, trained.config.functions)
+        print(f"Restored {agent_name} after {meta['env_steps']} agent steps from "
+              f"{_RUN_DIR.value}")
+
+        def run(on_batch):
+            return evaluation.run_core_episodes(sim, core, params, _EPISODES.value,
+                                                _NUM_ENVS.value, _SEED.value, on_batch)
+    else:
+        extra = required_format(_MAP.value) if _AGENT.value == "scripted" else {}
+        env = make(_MAP.value, screen_size=_SCREEN.value, minimap_size=_MINIMAP.value,
+                   step_mul=_STEP_MUL.value, **extra)
+        sim, agent_name, map_name = env.simulator, _AGENT.value, _MAP.value
+        policy = evaluation.make_policy(agent_name, sim)
+
+        def run(on_batch):
+            return evaluation.run_episodes(sim, policy, _EPISODES.value, _NUM_ENVS.value,
+                                           _SEED.value, on_batch)
 
     def progress(stats: evaluation.EpisodeStats) -> None:
         s = stats.summary
         print(f"  {s['episodes']:>5} episodes  mean {s['mean']:8.2f}  max {s['max']:7.1f}  "
               f"({time.time() - start:.0f} s)", flush=True)
 
-    print(f"Evaluating the {_AGENT.value} agent on {_MAP.value} for {_EPISODES.value} "
+    print(f"Evaluating the {agent_name} agent on {map_name} for {_EPISODES.value} "
           f"episodes ({min(_NUM_ENVS.value, _EPISODES.value)} environments at a time; "
           f"the first batch compiles)", flush=True)
-    stats = evaluation.run_episodes(sim, policy, _EPISODES.value, _NUM_ENVS.value,
-                                    _SEED.value, progress)
+    stats = run(progress)
     s = stats.summary
-    print(f"\n{_MAP.value}, {_AGENT.value} agent: mean {s['mean']:.2f} ± {s['std']:.2f} (std), "
+    print(f"\n{map_name}, {agent_name} agent: mean {s['mean']:.2f} ± {s['std']:.2f} (std), "
           f"max {s['max']:g}, over {s['episodes']} episodes "
           f"[{time.time() - start:.0f} s]")
     print("The paper's Table 1:")
-    print(paper_rows(_MAP.value))
+    print(paper_rows(map_name))
     if _OUTPUT.value:
-        config = {flag.name: flag.value for flag in (_MAP, _AGENT, _EPISODES, _NUM_ENVS,
-                                                     _SCREEN, _MINIMAP, _STEP_MUL, _SEED)}
-        write_json(_OUTPUT.value, {**s, "scores": stats.scores.tolist(),
-                                   "steps": stats.steps.tolist(), "config": config})
+        config = {flag.name: flag.value for flag in (
+            _MAP, _AGENT, _EPISODES, _NUM_ENVS, _SCREEN, _MINIMAP, _STEP_MUL, _SEED,
+            _RUN_DIR, _STEP, _TEMPERATURE)}
+        write_json_atomic(_OUTPUT.value, {**s, "scores": stats.scores.tolist(),
+                                          "steps": stats.steps.tolist(), "config": config})
         print(f"Wrote {_OUTPUT.value}")
 
 

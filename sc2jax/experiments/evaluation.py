@@ -88,6 +88,66 @@ def _episode_batch(sim: Simulator, policy: Policy, num_envs: int):
     return jax.jit(jax.vmap(one_env))
 
 
+def core_episodes_fn(sim: Simulator, core, num_envs: int):
+    """A pure function (params, key) -> (returns float32[num_envs], lengths
+    int32[num_envs], done bool[num_envs]): one episode in each of `num_envs`
+    environments, acting with an `ActorCore` (vmap it over parameters to evaluate many
+    policies at once)."""
+    length = max_episode_steps(sim)
+    reset, step = jax.vmap(sim.reset), jax.vmap(sim.step)
+
+    def run(params, key):
+        reset_key, run_key = jax.random.split(key)
+        state, ts = reset(jax.random.split(reset_key, num_envs))
+
+        def body(carry, key):
+            state, ts, core_carry, done, score, steps = carry
+            core_carry, action, _ = core.act(params, key, core_carry,
+                                             core.observe(ts.observation), ts.first())
+            state, ts = step(state, action)
+            score = score + jnp.where(done, 0.0, ts.reward)
+            steps = steps + jnp.where(done, 0, 1)
+            return (state, ts, core_carry, done | ts.last(), score, steps), None
+
+        init = (state, ts, core.initial_carry(num_envs), jnp.zeros(num_envs, bool),
+                jnp.zeros(num_envs, jnp.float32), jnp.zeros(num_envs, jnp.int32))
+        (_, _, _, done, score, steps), _ = jax.lax.scan(
+            body, init, jax.random.split(run_key, length))
+        return score, steps, done
+
+    return run
+
+
+@functools.cache
+def _core_episode_batch(sim: Simulator, core, num_envs: int):
+    return jax.jit(core_episodes_fn(sim, core, num_envs))
+
+
+def _check_counts(episodes: int, num_envs: int) -> None:
+    for name, value in (("episodes", episodes), ("num_envs", num_envs)):
+        if isinstance(value, bool) or not isinstance(value, int) or value < 1:
+            raise ValueError(f"{name} must be a positive int, got {value!r}")
+
+
+def _collect(sim: Simulator, batch: Callable, episodes: int, num_envs: int, seed: int,
+             on_batch: Callable[[EpisodeStats], None] | None) -> EpisodeStats:
+    """Calls `batch(key) -> (score, length, done)` until `episodes` episodes are done."""
+    key = jax.random.PRNGKey(seed)
+    scores, steps = [], []
+    while sum(map(len, scores)) < episodes:
+        key, batch_key = jax.random.split(key)
+        score, length, done = jax.device_get(batch(batch_key))
+        if not done.all():
+            raise RuntimeError(f"{int((~done).sum())} episodes did not end within "
+                               f"{max_episode_steps(sim)} steps")
+        scores.append(score.astype(np.float64))
+        steps.append(length.astype(np.int64))
+        if on_batch is not None:
+            on_batch(EpisodeStats(np.concatenate(scores)[:episodes],
+                                  np.concatenate(steps)[:episodes]))
+    return EpisodeStats(np.concatenate(scores)[:episodes], np.concatenate(steps)[:episodes])
+
+
 def run_episodes(sim: Simulator, policy: Policy, episodes: int, num_envs: int = 64,
                  seed: int = 0, on_batch: Callable[[EpisodeStats], None] | None = None
                  ) -> EpisodeStats:
@@ -107,22 +167,19 @@ def run_episodes(sim: Simulator, policy: Policy, episodes: int, num_envs: int = 
     Raises:
       ValueError: for non-positive `episodes` or `num_envs`.
     """
-    for name, value in (("episodes", episodes), ("num_envs", num_envs)):
-        if isinstance(value, bool) or not isinstance(value, int) or value < 1:
-            raise ValueError(f"{name} must be a positive int, got {value!r}")
+    _check_counts(episodes, num_envs)
     num_envs = min(num_envs, episodes)
     batch = _episode_batch(sim, policy, num_envs)
-    key = jax.random.PRNGKey(seed)
-    scores, steps = [], []
-    while sum(map(len, scores)) < episodes:
-        key, batch_key = jax.random.split(key)
-        score, length, done = jax.device_get(batch(jax.random.split(batch_key, num_envs)))
-        if not done.all():
-            raise RuntimeError(f"{int((~done).sum())} episodes did not end within "
-                               f"{max_episode_steps(sim)} steps")
-        scores.append(score.astype(np.float64))
-        steps.append(length.astype(np.int64))
-        if on_batch is not None:
-            on_batch(EpisodeStats(np.concatenate(scores)[:episodes],
-                                  np.concatenate(steps)[:episodes]))
-    return EpisodeStats(np.concatenate(scores)[:episodes], np.concatenate(steps)[:episodes])
+    return _collect(sim, lambda key: batch(jax.random.split(key, num_envs)), episodes,
+                    num_envs, seed, on_batch)
+
+
+def run_core_episodes(sim: Simulator, core, params, episodes: int, num_envs: int = 64,
+                      seed: int = 0, on_batch: Callable[[EpisodeStats], None] | None = None
+                      ) -> EpisodeStats:
+    """Runs `episodes` full episodes of a network's `ActorCore` (any of the four networks,
+    recurrent ones included), `num_envs` at a time; arguments as `run_episodes`."""
+    _check_counts(episodes, num_envs)
+    num_envs = min(num_envs, episodes)
+    batch = _core_episode_batch(sim, core, num_envs)
+    return _collect(sim, lambda key: batch(params, key), episodes, num_envs, seed, on_batch)

@@ -1,0 +1,144 @@
+"""`TrainConfig`: every setting of a training run, checked before anything is built.
+
+Defaults follow the paper (§4.3): 64x64 feature layers, step_mul 8, K = 40, entropy
+1e-3 for the function id and each argument, RMSProp with a learning rate annealed
+linearly to half its initial value.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+
+from sc2jax.environment.minigames import MAPS
+from sc2jax.environment.specs import ObservationFormat
+from sc2jax.experiments.actor import function_mask
+from sc2jax.losses.learner_loss import OFF_POLICY_CORRECTIONS
+from sc2jax.networks.factory import NETWORKS
+
+
+def _positive_int(name: str, value) -> None:
+    if isinstance(value, bool) or not isinstance(value, int) or value < 1:
+        raise ValueError(f"{name} must be a positive int, got {value!r}")
+
+
+def _positive_float(name: str, value) -> None:
+    if isinstance(value, bool) or not isinstance(value, (int, float)) or not value > 0:
+        raise ValueError(f"{name} must be a positive number, got {value!r}")
+
+
+@dataclasses.dataclass(frozen=True)
+class TrainConfig:
+    """A training run.
+
+    Attributes:
+      map_name: the mini-game.
+      agent: the network: "atari", "fullyconv", "fullyconv_lstm" or "arfullyconv".
+      screen_size, minimap_size: feature-layer resolutions (16..256).
+      screen_features, minimap_features: layer names (None: all of them).
+      functions: restrict the agent's action set to these PySC2 function names (None:
+        all 573, the paper's setting); availability still masks them.
+      step_mul: game loops per agent step.
+      num_envs: environments stepped together (the paper's 64 threads).
+      unroll_length: K, agent steps per trajectory and update.
+      total_steps: agent steps of the run, over all environments.
+      learning_rate: the initial RMSProp learning rate.
+      discount: γ.
+      value_weight: β.
+      entropy_weight: η, for the function id and each argument.
+      rmsprop_decay, rmsprop_epsilon: RMSProp's settings.
+      max_grad_norm: global gradient-norm clipping (0: none).
+      off_policy_correction: "none" (A3C's n-step returns) or "vtrace".
+      seed: the run's seed (parameters, environments and actions).
+      updates_per_chunk: updates between two host calls (logging).
+      checkpoint_interval_s: seconds between checkpoints (one is always written at the end).
+      eval_episodes: episodes of the final evaluation (0: none).
+    """
+
+    map_name: str = "MoveToBeacon"
+    agent: str = "fullyconv"
+    screen_size: int = 64
+    minimap_size: int = 64
+    screen_features: tuple[str, ...] | None = None
+    minimap_features: tuple[str, ...] | None = None
+    functions: tuple[str, ...] | None = None
+    step_mul: int = 8
+    num_envs: int = 32
+    unroll_length: int = 40
+    total_steps: int = 1_000_000
+    learning_rate: float = 5e-4
+    discount: float = 0.99
+    value_weight: float = 0.5
+    entropy_weight: float = 1e-3
+    rmsprop_decay: float = 0.99
+    rmsprop_epsilon: float = 1e-5
+    max_grad_norm: float = 10.0
+    off_policy_correction: str = "none"
+    seed: int = 0
+    updates_per_chunk: int = 10
+    checkpoint_interval_s: float = 300.0
+    eval_episodes: int = 100
+
+    def __post_init__(self):
+        if self.map_name not in MAPS:
+            raise ValueError(f"unknown map {self.map_name!r}; allowed: {sorted(MAPS)}")
+        if self.agent not in NETWORKS:
+            raise ValueError(f"unknown agent {self.agent!r}; allowed: {sorted(NETWORKS)}")
+        if self.off_policy_correction not in OFF_POLICY_CORRECTIONS:
+            raise ValueError(f"unknown off_policy_correction {self.off_policy_correction!r}; "
+                             f"allowed: {list(OFF_POLICY_CORRECTIONS)}")
+        for name in ("screen_features", "minimap_features", "functions"):
+            value = getattr(self, name)
+            if isinstance(value, str):
+                raise ValueError(f"{name} must be a sequence of layer names, got {value!r}")
+            if value is not None:
+                object.__setattr__(self, name, tuple(value))
+        for name in ("step_mul", "num_envs", "unroll_length", "total_steps",
+                     "updates_per_chunk"):
+            _positive_int(name, getattr(self, name))
+        for name in ("learning_rate", "rmsprop_epsilon", "checkpoint_interval_s"):
+            _positive_float(name, getattr(self, name))
+        for name in ("value_weight", "entropy_weight", "max_grad_norm"):
+            if not getattr(self, name) >= 0:
+                raise ValueError(f"{name} must be >= 0, got {getattr(self, name)!r}")
+        if not 0.0 <= self.discount <= 1.0:
+            raise ValueError(f"discount must be in [0, 1], got {self.discount!r}")
+        if not 0.0 <= self.rmsprop_decay < 1.0:
+            raise ValueError(f"rmsprop_decay must be in [0, 1), got {self.rmsprop_decay!r}")
+        if isinstance(self.eval_episodes, bool) or not isinstance(
+                self.eval_episodes, int) or self.eval_episodes < 0:
+            raise ValueError(f"eval_episodes must be an int >= 0, got {self.eval_episodes!r}")
+        self.observation_format()  # checks the resolutions and layer names
+        function_mask(self.functions)  # checks the action set
+
+    def observation_format(self) -> ObservationFormat:
+        return ObservationFormat(screen_size=self.screen_size, minimap_size=self.minimap_size,
+                                 screen_features=self.screen_features,
+                                 minimap_features=self.minimap_features)
+
+    @property
+    def steps_per_update(self) -> int:
+        return self.unroll_length * self.num_envs
+
+    @property
+    def total_updates(self) -> int:
+        """Updates of the run: total_steps rounded up to whole updates."""
+        return -(-self.total_steps // self.steps_per_update)
+
+    def to_json(self) -> dict:
+        return dataclasses.asdict(self)
+
+    @classmethod
+    def from_json(cls, payload: dict) -> TrainConfig:
+        names = {f.name for f in dataclasses.fields(cls)}
+        unknown = sorted(set(payload) - names)
+        if unknown:
+            raise ValueError(f"unknown config keys {unknown}; allowed: {sorted(names)}")
+        return cls(**payload)
+
+
+def parse_layers(text: str | None) -> tuple[str, ...] | None:
+    """A comma-separated flag value -> names ("" or "all" or None: all of them)."""
+    if text is None or text.strip() in ("", "all"):
+        return None
+    return tuple(name.strip() for name in text.split(",") if name.strip())
+
