@@ -35,7 +35,10 @@ class OptimiserConfig:
       decay: RMSProp's squared-gradient decay.
       epsilon: added to the RMS, outside the square root: g / (sqrt(E[g²]) + ε). (Inside
         the root, as optax's default, ε = 1e-5 would floor the denominator at 3e-3 and
-        shrink the steps of this loss's small gradients a hundredfold.)
+        shrink the steps of this loss's small gradients a hundredfold.) E[g²] is
+        bias-corrected: without it, E[g²] starts at 0 and the first steps are ~10x the
+        learning rate for every parameter at once, which kills the torso's ReLUs and
+        leaves FullyConv's spatial policy uniform for good.
       max_grad_norm: gradients are clipped to this global norm (0: no clipping).
       anneal_updates: updates over which the learning rate falls linearly to half its
         initial value (then stays there).
@@ -108,7 +111,8 @@ def make_learner(network: nn.Module, loss_fn: LossFn, config: OptimiserConfig) -
         (`losses.make_actor_critic_loss`).
       config: the optimiser settings.
     """
-    transforms = [optax.scale_by_rms(decay=config.decay, eps=config.epsilon, eps_in_sqrt=False)]
+    transforms = [optax.scale_by_rms(decay=config.decay, eps=config.epsilon, eps_in_sqrt=False,
+                                     bias_correction=True)]
     if config.max_grad_norm > 0:
         transforms.insert(0, optax.clip_by_global_norm(config.max_grad_norm))
     direction = optax.chain(*transforms)
@@ -124,7 +128,7 @@ def make_learner(network: nn.Module, loss_fn: LossFn, config: OptimiserConfig) -
         steps, opt_state = direction.update(grads, state.opt_state, state.params)
         rate = annealed_learning_rate(state.learning_rate, state.update, config.anneal_updates)
         params = optax.apply_updates(state.params, jax.tree.map(lambda s: -rate * s, steps))
-        metrics = dict(metrics, learning_rate=rate, grad_norm=optax.global_norm(grads))
+        metrics = dict(metrics, learning_rate=rate, grad_norm=optax.tree.norm(grads))
         return LearnerState(params, opt_state, state.update + 1, state.learning_rate), metrics
 
     return Learner(init, update)

@@ -20,6 +20,7 @@ is lost and nothing is counted twice.
 from __future__ import annotations
 
 import dataclasses
+import functools
 import json
 import os
 import time
@@ -67,13 +68,22 @@ class Agent:
         return TrainState(learner, actor)
 
     def chunk(self, num_runs: int | None = None):
-        unroll = make_unroll(self.sim, self.core, self.config.unroll_length)
-        return make_train_chunk(unroll, self.learner, self.config.updates_per_chunk,
-                                num_runs=num_runs)
+        """The compiled chunk (`make_train_chunk`), built once per agent and run count."""
+        if num_runs not in self._chunks:
+            unroll = make_unroll(self.sim, self.core, self.config.unroll_length)
+            self._chunks[num_runs] = make_train_chunk(
+                unroll, self.learner, self.config.updates_per_chunk, num_runs=num_runs)
+        return self._chunks[num_runs]
+
+    @functools.cached_property
+    def _chunks(self) -> dict:
+        return {}
 
 
+@functools.cache
 def build(config: TrainConfig) -> Agent:
-    """Builds the simulator, network, actor and learner of a config."""
+    """Builds the simulator, network, actor and learner of a config (once per config, so
+    runs of the same config in one process share compiled code)."""
     sim = simulator(config.map_name, config.observation_format(), config.step_mul, 0, 1.0,
                     float(config.discount), False)
     network = make_network(config.agent, sim.fmt)
