@@ -44,9 +44,10 @@ def main(argv) -> None:
         sys.exit(f"error: {error}")
     print(f"\n{config.map_name}, {config.agent}, {len(rates)} runs of "
           f"{summary['agent_steps_per_run']} agent steps [{summary['seconds'] / 60:.1f} min]:")
+    best = summary["best_run"]
+    where = "" if best is None else f" (run {best}, lr {rates[best]:.2e})"
     print(f"  mean over runs {summary['mean_over_runs']:.2f}   best mean "
-          f"{summary['best_mean']:.2f} (run {summary['best_run']}, lr "
-          f"{rates[summary['best_run']]:.2e})   max {summary['max']:g}")
+          f"{summary['best_mean']:.2f}{where}   max {summary['max']:g}")
     print("The paper's Table 1:")
     print(paper_rows(config.map_name))
 

@@ -61,7 +61,8 @@ def run_sweep(config: TrainConfig, learning_rates, sweep_dir: str, *,
 
     Returns:
       The summary written to sweep.json: `learning_rates`, per-run `run_scores` and
-      `run_max`, and `mean_over_runs`, `best_run`, `best_mean`, `max`.
+      `run_max`, and `mean_over_runs`, `best_run`, `best_mean`, `max` (NaN scores and
+      a `best_run` of None when no run has finished an episode).
     """
     rates = np.asarray(learning_rates, np.float32)
     if rates.ndim != 1 or rates.size < 1 or not (rates > 0).all():
@@ -123,11 +124,14 @@ def run_sweep(config: TrainConfig, learning_rates, sweep_dir: str, *,
             run_scores.append(stats.summary["mean"])
             run_max[-1] = max(run_max[-1], stats.summary["max"])
         else:
-            run_scores.append(float(table["score"][mine][-1]))
-    best = int(np.nanargmax(run_scores))
+            run_scores.append(float(table["score"][mine][-1]) if mine.any() else float("nan"))
+    scored = np.isfinite(run_scores)  # a run without a finished episode has no score
+    best = int(np.nanargmax(run_scores)) if scored.any() else None
     summary = {"learning_rates": rates.tolist(), "run_scores": run_scores, "run_max": run_max,
-               "mean_over_runs": float(np.nanmean(run_scores)), "best_run": best,
-               "best_mean": run_scores[best], "max": float(np.max(run_max)),
+               "mean_over_runs": float(np.mean(np.asarray(run_scores)[scored]))
+               if scored.any() else float("nan"), "best_run": best,
+               "best_mean": run_scores[best] if best is not None else float("nan"),
+               "max": float(np.max(run_max)),
                "agent_steps_per_run": env_steps, "seconds": time.time() - start,
                "config": config.to_json()}
     write_json_atomic(os.path.join(sweep_dir, "sweep.json"), summary)

@@ -11,11 +11,13 @@ import numpy as np
 import pytest
 
 from sc2jax.experiments import evaluation, trainer
+from sc2jax.experiments import sweeping as sampling
 from sc2jax.experiments.actor import make_unroll
 from sc2jax.experiments.compiled_loop import make_train_chunk
 from sc2jax.experiments.config import TrainConfig, parse_layers
 from sc2jax.experiments.learner import annealed_learning_rate
 from sc2jax.experiments.metrics_log import read_csv
+from sc2jax.experiments.random_search import random_search
 from sc2jax.losses.learner_loss import unroll as network_unroll
 from sc2jax.networks import policy
 
@@ -149,3 +151,31 @@ def test_trained_run_can_be_evaluated(tmp_path):
     assert stats.scores.shape == (2,) and (stats.steps > 0).all()
     with pytest.raises(FileNotFoundError, match="not a run directory"):
         trainer.load_run(str(tmp_path / "missing"))
+
+
+def test_sampled_learning_rates_are_log_uniform_in_range():
+    rates = sampling.sample_learning_rates(jax.random.PRNGKey(0), 2000, 1e-5, 1e-3)
+    assert rates.shape == (2000,) and rates.min() >= 1e-5 and rates.max() <= 1e-3
+    # log-uniform: a third of the mass in each factor of 10^(2/3).
+    assert np.mean(np.log10(rates) < -13 / 3) == pytest.approx(1 / 3, abs=0.04)
+    with pytest.raises(ValueError, match="lr_min <= lr_max"):
+        sampling.sample_learning_rates(jax.random.PRNGKey(0), 2, 1e-3, 1e-5)
+
+
+def test_sweep_reports_table1_entries(tmp_path):
+    config = TrainConfig(**{**TINY.to_json(), "eval_episodes": 2})
+    summary = sampling.run_sweep(config, [1e-4, 1e-3], str(tmp_path), log=lambda _: None)
+    assert len(summary["run_scores"]) == 2 and summary["best_run"] in (0, 1)
+    assert summary["best_mean"] == max(summary["run_scores"])
+    assert summary["mean_over_runs"] == pytest.approx(np.mean(summary["run_scores"]))
+    for name in ("sweep.json", "curves.csv", "learning_curves.png", "checkpoints"):
+        assert os.path.exists(tmp_path / name), name
+
+
+def test_random_search_keeps_the_best_policy():
+    result = random_search(TINY, 3, episodes=2, policies_per_batch=2, log=lambda _: None)
+    assert len(result["policy_means"]) == 3
+    assert result["best_mean"] == max(result["policy_means"])
+    assert result["max"] >= result["best_mean"]
+    with pytest.raises(ValueError, match="temperature must be > 0"):
+        random_search(TINY, 1, temperature=0.0)
