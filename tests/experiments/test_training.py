@@ -10,11 +10,13 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 
+from sc2jax.environment import make
 from sc2jax.experiments import evaluation, trainer
 from sc2jax.experiments import sweeping as sampling
 from sc2jax.experiments.actor import make_unroll
 from sc2jax.experiments.compiled_loop import make_train_chunk
 from sc2jax.experiments.config import TrainConfig, parse_layers
+from sc2jax.experiments.host_actor import HostActor, run_split_loop
 from sc2jax.experiments.learner import annealed_learning_rate
 from sc2jax.experiments.metrics_log import read_csv
 from sc2jax.experiments.random_search import random_search
@@ -179,3 +181,28 @@ def test_random_search_keeps_the_best_policy():
     assert result["max"] >= result["best_mean"]
     with pytest.raises(ValueError, match="temperature must be > 0"):
         random_search(TINY, 1, temperature=0.0)
+
+
+def test_split_loop_trains_from_a_dm_env_environment():
+    config = TrainConfig(**{**TINY.to_json(), "off_policy_correction": "vtrace"})
+    agent = trainer.build(config)
+    env = make(config.map_name, screen_size=16, minimap_size=16,
+               screen_features=config.screen_features,
+               minimap_features=config.minimap_features, num_envs=2, seed=0)
+    assert env.simulator.fmt == agent.sim.fmt
+    actor = HostActor(env, agent.core, config.unroll_length)
+    state = agent.initial_state(jax.random.PRNGKey(3))
+    trajectory = actor.unroll(state.learner.params)
+    k = config.unroll_length
+    assert trajectory.observation["feature_screen"].shape == (k + 1, 2, 2, 16, 16)
+    assert trajectory.behaviour_log_prob.shape == trajectory.reward.shape == (k, 2)
+    out = network_unroll(agent.network, state.learner.params,
+                         jax.tree.map(lambda x: x[:k], trajectory.observation))
+    log_pi = policy.log_prob(out, trajectory.action,
+                             trajectory.observation["available_actions"][:k]).total
+    np.testing.assert_allclose(trajectory.behaviour_log_prob, log_pi, rtol=1e-4, atol=1e-4)
+    learner, metrics = run_split_loop(actor, agent.learner, state.learner, 3)
+    assert int(learner.update) == 3 and len(metrics) == 3
+    assert all(np.isfinite(m["loss"]) for m in metrics)
+    with pytest.raises(ValueError, match="num_updates"):
+        run_split_loop(actor, agent.learner, state.learner, 0)
