@@ -17,6 +17,7 @@ from __future__ import annotations
 import argparse
 import os
 import platform
+import sys
 import time
 
 import jax
@@ -120,7 +121,8 @@ def main() -> None:
             rows.append(measure(config, args.repeats))
             print(table(rows[-1:], "").strip().splitlines()[-1], flush=True)
     device = jax.devices()[0]
-    header = (f"{SECTION}\n\n`python -m sc2jax.experiments.benchmark_training --write` "
+    command = " ".join(["python -m sc2jax.experiments.benchmark_training", *sys.argv[1:]])
+    header = (f"{SECTION}\n\n`{command}` "
               f"({args.map}, all feature layers, {args.num_envs} environments, K = "
               f"{args.unroll_length}, {device.platform} {device.device_kind}, "
               f"{os.cpu_count()} cores, {platform.machine()}, jax {jax.__version__}). "
