@@ -33,6 +33,7 @@ from absl import app, flags, logging
 
 from sc2jax.environment import MAPS, ObservationFormat, Simulator
 from sc2jax.environment.agents.random_agent import random_action
+from sc2jax.experiments.markdown import write_section
 
 FLAGS = flags.FLAGS
 flags.DEFINE_list("maps", list(MAPS), "Mini-games to measure.")
@@ -212,28 +213,6 @@ def markdown(results: Sequence[Result], smax: dict[int, Result], command: str,
     if note:
         lines += ["", note]
     return "\n".join(lines) + "\n"
-
-
-def write_section(path: str, section: str) -> None:
-    """Replaces (or appends) `SECTION` in a markdown file, keeping every other section.
-
-    The section runs from its heading to the next `## ` heading. Subsections (`### `)
-    under it that this script does not write are kept after the new table.
-    """
-    text = open(path).read() if os.path.exists(path) else "# Benchmarks\n"
-    start = text.find(SECTION)
-    if start < 0:
-        text = text.rstrip("\n") + "\n\n" + section
-    else:
-        end = text.find("\n## ", start + len(SECTION))
-        end = len(text) if end < 0 else end + 1
-        old = text[start:end]
-        kept = old.find("\n### ")
-        tail = old[kept + 1:] if kept >= 0 else ""
-        text = text[:start] + section + ("\n" + tail if tail else "") + text[end:]
-        text = text.rstrip("\n") + "\n"
-    with open(path, "w") as f:
-        f.write(text)
 
 
 def main(argv: Sequence[str]) -> None:

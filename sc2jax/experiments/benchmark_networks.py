@@ -26,6 +26,7 @@ import numpy as np
 
 from sc2jax.environment import ObservationFormat, observation_spec
 from sc2jax.environment.dense import DenseAction
+from sc2jax.experiments.markdown import write_section
 from sc2jax.losses import Trajectory, make_actor_critic_loss
 from sc2jax.networks import NETWORKS, make_network
 
@@ -101,24 +102,6 @@ def _cpu_model() -> str:
     return platform.processor() or "unknown"
 
 
-def write_section(text: str, path: str = DOC) -> None:
-    """Replaces (or appends) the section in docs/benchmarks.md, touching nothing else."""
-    path = os.path.abspath(path)
-    if not os.path.exists(path):
-        with open(path, "w") as f:
-            f.write("# Benchmarks\n")
-    with open(path) as f:
-        doc = f.read()
-    start = doc.find(SECTION)
-    if start < 0:
-        doc = doc.rstrip("\n") + "\n\n" + text
-    else:
-        end = doc.find("\n## ", start + len(SECTION))
-        doc = doc[:start] + text + ("" if end < 0 else doc[end + 1:])
-    with open(path, "w") as f:
-        f.write(doc)
-
-
 def main(argv: Sequence[str] | None = None) -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("--networks", nargs="+", default=list(NETWORKS), choices=list(NETWORKS))
@@ -146,7 +129,7 @@ def main(argv: Sequence[str] | None = None) -> None:
         f"({jax.default_backend()}). Date: {datetime.date.today().isoformat()}.", "",
         "GPU: not measured in this session.", "", *table, ""])
     if args.write:
-        write_section(text)
+        write_section(DOC, text)
     print(text)
 
 

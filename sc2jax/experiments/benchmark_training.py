@@ -26,6 +26,7 @@ from sc2jax.environment.agents import random_action
 from sc2jax.experiments.actor import make_unroll
 from sc2jax.experiments.compiled_loop import make_train_step
 from sc2jax.experiments.config import TrainConfig
+from sc2jax.experiments.markdown import write_section
 from sc2jax.experiments.trainer import build
 
 SECTION = "## Training throughput"
@@ -86,20 +87,6 @@ def table(rows: list[dict], header: str) -> str:
         lines.append(f"| {r['agent']} | {r['size']}² | {r['steps_per_s']:,.0f} | "
                      f"{r['env']:.0%} | {r['acting']:.0%} | {r['learning']:.0%} |")
     return "\n".join(lines)
-
-
-def write_section(path: str, text: str) -> None:
-    """Replaces (or appends) the training-throughput section of docs/benchmarks.md."""
-    old = open(path).read() if os.path.exists(path) else ""
-    start = old.find(SECTION)
-    if start >= 0:
-        end = old.find("\n## ", start + len(SECTION))
-        old = old[:start] + old[end + 1:] if end >= 0 else old[:start]
-    new = old.rstrip() + "\n\n" + text + "\n"
-    tmp = f"{path}.tmp{os.getpid()}"
-    with open(tmp, "w") as f:
-        f.write(new)
-    os.replace(tmp, path)
 
 
 def main() -> None:
