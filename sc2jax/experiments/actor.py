@@ -28,6 +28,7 @@ from flax import struct
 from sc2jax.environment.dense import DenseAction
 from sc2jax.environment.functions import FUNCTIONS, NUM_FUNCTIONS
 from sc2jax.environment.simulator import Simulator
+from sc2jax.experiments.checks import check_positive_int
 from sc2jax.losses.learner_loss import Trajectory
 from sc2jax.networks import policy
 from sc2jax.networks.factory import act as feed_forward_act
@@ -160,8 +161,7 @@ def make_unroll(sim: Simulator, core: ActorCore, unroll_length: int) -> Unroll:
     Raises:
       ValueError: for a non-positive `unroll_length`.
     """
-    if isinstance(unroll_length, bool) or not isinstance(unroll_length, int) or unroll_length < 1:
-        raise ValueError(f"unroll_length must be a positive int, got {unroll_length!r}")
+    check_positive_int("unroll_length", unroll_length)
     reset = jax.vmap(sim.reset)
     step = jax.vmap(sim.step)
 

@@ -37,6 +37,8 @@ import jax
 import orbax.checkpoint as ocp
 from absl import logging as absl_logging
 
+from sc2jax.experiments.checks import check_positive_int
+
 _STATE = "state"
 _META = "meta"
 _ORBAX_DIR = os.path.dirname(os.path.dirname(os.path.abspath(ocp.__file__)))
@@ -92,8 +94,7 @@ class Checkpointer:
     """
 
     def __init__(self, directory: str | os.PathLike, *, max_to_keep: int = 3):
-        if isinstance(max_to_keep, bool) or not isinstance(max_to_keep, int) or max_to_keep < 1:
-            raise ValueError(f"max_to_keep must be a positive int, got {max_to_keep!r}")
+        check_positive_int("max_to_keep", max_to_keep)
         _quiet_orbax_logging()
         self.directory = os.path.abspath(os.fspath(directory))
         options = ocp.CheckpointManagerOptions(

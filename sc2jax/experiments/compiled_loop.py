@@ -21,6 +21,7 @@ import jax.numpy as jnp
 from flax import struct
 
 from sc2jax.experiments.actor import ActorState, EpisodeLog, Unroll
+from sc2jax.experiments.checks import check_positive_int
 from sc2jax.experiments.learner import Learner, LearnerState
 
 
@@ -69,11 +70,9 @@ def make_train_chunk(unroll: Unroll, learner: Learner, updates_per_chunk: int, *
     Raises:
       ValueError: for a non-positive `updates_per_chunk` or `num_runs`.
     """
-    for name, value in (("updates_per_chunk", updates_per_chunk), ("num_runs", num_runs)):
-        if value is None and name == "num_runs":
-            continue
-        if isinstance(value, bool) or not isinstance(value, int) or value < 1:
-            raise ValueError(f"{name} must be a positive int, got {value!r}")
+    check_positive_int("updates_per_chunk", updates_per_chunk)
+    if num_runs is not None:
+        check_positive_int("num_runs", num_runs)
     step = make_train_step(unroll, learner)
     if num_runs is not None:
         step = jax.vmap(step)

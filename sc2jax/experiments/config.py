@@ -12,13 +12,9 @@ import dataclasses
 from sc2jax.environment.minigames import MAPS
 from sc2jax.environment.specs import ObservationFormat
 from sc2jax.experiments.actor import function_mask
+from sc2jax.experiments.checks import check_positive_int
 from sc2jax.losses.learner_loss import OFF_POLICY_CORRECTIONS
 from sc2jax.networks.factory import NETWORKS
-
-
-def _positive_int(name: str, value) -> None:
-    if isinstance(value, bool) or not isinstance(value, int) or value < 1:
-        raise ValueError(f"{name} must be a positive int, got {value!r}")
 
 
 def _positive_float(name: str, value) -> None:
@@ -94,7 +90,7 @@ class TrainConfig:
                 object.__setattr__(self, name, tuple(value))
         for name in ("step_mul", "num_envs", "unroll_length", "total_steps",
                      "updates_per_chunk"):
-            _positive_int(name, getattr(self, name))
+            check_positive_int(name, getattr(self, name))
         for name in ("learning_rate", "rmsprop_epsilon", "checkpoint_interval_s"):
             _positive_float(name, getattr(self, name))
         for name in ("value_weight", "entropy_weight", "max_grad_norm"):
@@ -136,7 +132,7 @@ class TrainConfig:
         return cls(**payload)
 
 
-def parse_layers(text: str | None) -> tuple[str, ...] | None:
+def parse_names(text: str | None) -> tuple[str, ...] | None:
     """A comma-separated flag value -> names ("" or "all" or None: all of them)."""
     if text is None or text.strip() in ("", "all"):
         return None

@@ -18,6 +18,7 @@ import numpy as np
 from sc2jax.environment.agents import random_action, scripted_policy
 from sc2jax.environment.dense import DenseAction
 from sc2jax.environment.simulator import Simulator
+from sc2jax.experiments.checks import check_positive_int
 
 Policy = Callable[[jax.Array, dict], DenseAction]
 
@@ -124,9 +125,8 @@ def _core_episode_batch(sim: Simulator, core, num_envs: int):
 
 
 def _check_counts(episodes: int, num_envs: int) -> None:
-    for name, value in (("episodes", episodes), ("num_envs", num_envs)):
-        if isinstance(value, bool) or not isinstance(value, int) or value < 1:
-            raise ValueError(f"{name} must be a positive int, got {value!r}")
+    check_positive_int("episodes", episodes)
+    check_positive_int("num_envs", num_envs)
 
 
 def _collect(sim: Simulator, batch: Callable, episodes: int, num_envs: int, seed: int,

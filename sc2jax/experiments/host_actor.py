@@ -24,6 +24,7 @@ import jax
 import numpy as np
 
 from sc2jax.experiments.actor import ActorCore
+from sc2jax.experiments.checks import check_positive_int
 from sc2jax.experiments.learner import Learner, LearnerState
 from sc2jax.losses.learner_loss import Trajectory
 
@@ -40,9 +41,7 @@ class HostActor:
 
     def __init__(self, env: dm_env.Environment, core: ActorCore, unroll_length: int,
                  seed: int = 0):
-        if isinstance(unroll_length, bool) or not isinstance(unroll_length,
-                                                             int) or unroll_length < 1:
-            raise ValueError(f"unroll_length must be a positive int, got {unroll_length!r}")
+        check_positive_int("unroll_length", unroll_length)
         self._env, self._core, self._k = env, core, unroll_length
         self._act = jax.jit(core.act)
         self._observe = jax.jit(core.observe)
@@ -107,8 +106,7 @@ def run_split_loop(actor: HostActor, learner: Learner, state: LearnerState,
     Raises:
       Whatever the actor thread raised.
     """
-    if isinstance(num_updates, bool) or not isinstance(num_updates, int) or num_updates < 1:
-        raise ValueError(f"num_updates must be a positive int, got {num_updates!r}")
+    check_positive_int("num_updates", num_updates)
     trajectories: queue.Queue = queue.Queue(maxsize=queue_size)
     latest = {"params": state.params}
     stop = threading.Event()

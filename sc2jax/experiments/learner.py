@@ -23,6 +23,7 @@ import jax.numpy as jnp
 import optax
 from flax import struct
 
+from sc2jax.experiments.checks import check_positive_int
 from sc2jax.losses.learner_loss import LossFn, Trajectory
 from sc2jax.networks.fully_conv_lstm import FullyConvLSTM
 
@@ -56,10 +57,7 @@ class OptimiserConfig:
             raise ValueError(f"epsilon must be > 0, got {self.epsilon!r}")
         if not self.max_grad_norm >= 0:
             raise ValueError(f"max_grad_norm must be >= 0, got {self.max_grad_norm!r}")
-        if isinstance(self.anneal_updates, bool) or not isinstance(
-                self.anneal_updates, int) or self.anneal_updates < 1:
-            raise ValueError(f"anneal_updates must be a positive int, got "
-                             f"{self.anneal_updates!r}")
+        check_positive_int("anneal_updates", self.anneal_updates)
 
 
 class LearnerState(struct.PyTreeNode):

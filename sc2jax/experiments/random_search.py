@@ -23,7 +23,8 @@ from absl import app, flags
 from sc2jax.environment import MAPS
 from sc2jax.experiments.actor import actor_core
 from sc2jax.experiments.checkpoints import write_json_atomic
-from sc2jax.experiments.config import TrainConfig, parse_layers
+from sc2jax.experiments.checks import check_positive_int
+from sc2jax.experiments.config import TrainConfig, parse_names
 from sc2jax.experiments.evaluation import core_episodes_fn
 from sc2jax.experiments.learner import init_params
 from sc2jax.experiments.paper import paper_rows
@@ -51,8 +52,7 @@ def random_search(config: TrainConfig, num_policies: int, *, temperature: float 
     """
     for name, value in (("num_policies", num_policies), ("episodes", episodes),
                         ("policies_per_batch", policies_per_batch)):
-        if isinstance(value, bool) or not isinstance(value, int) or value < 1:
-            raise ValueError(f"{name} must be a positive int, got {value!r}")
+        check_positive_int(name, value)
     if not temperature > 0:
         raise ValueError(f"temperature must be > 0, got {temperature!r}")
     agent = build(config)
@@ -103,8 +103,8 @@ def main(argv) -> None:
     try:
         config = TrainConfig(map_name=_MAP.value, agent=_AGENT.value,
                              screen_size=_SCREEN.value, minimap_size=_MINIMAP.value,
-                             screen_features=parse_layers(_SCREEN_FEATURES.value),
-                             minimap_features=parse_layers(_MINIMAP_FEATURES.value),
+                             screen_features=parse_names(_SCREEN_FEATURES.value),
+                             minimap_features=parse_names(_MINIMAP_FEATURES.value),
                              seed=_SEED.value)
         print(f"Random search: {_NUM_POLICIES.value} {config.agent} policies at temperature "
               f"{_TEMPERATURE.value}, {_EPISODES.value} episodes each (the first batch "

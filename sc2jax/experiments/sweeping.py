@@ -26,6 +26,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from sc2jax.experiments.checkpoints import Checkpointer, write_json_atomic
+from sc2jax.experiments.checks import check_positive_int
 from sc2jax.experiments.config import TrainConfig
 from sc2jax.experiments.metrics_log import CsvLog, read_csv
 from sc2jax.experiments.plots import plot_learning_curves
@@ -39,8 +40,7 @@ def sample_learning_rates(key: jax.Array, num_runs: int, lr_min: float = 1e-5,
     Raises:
       ValueError: unless 0 < lr_min <= lr_max and num_runs >= 1.
     """
-    if isinstance(num_runs, bool) or not isinstance(num_runs, int) or num_runs < 1:
-        raise ValueError(f"num_runs must be a positive int, got {num_runs!r}")
+    check_positive_int("num_runs", num_runs)
     if not 0 < lr_min <= lr_max:
         raise ValueError(f"need 0 < lr_min <= lr_max, got lr_min={lr_min!r}, "
                          f"lr_max={lr_max!r}")

@@ -20,7 +20,7 @@ import tempfile
 from absl import app, flags
 
 from sc2jax.environment import MAPS
-from sc2jax.experiments.config import TrainConfig, parse_layers
+from sc2jax.experiments.config import TrainConfig, parse_names
 from sc2jax.experiments.paper import paper_rows
 from sc2jax.experiments.trainer import train
 from sc2jax.networks.factory import NETWORKS
@@ -73,9 +73,9 @@ def config_from_flags() -> TrainConfig:
     """The `TrainConfig` of the flags (ValueError for a bad value)."""
     return TrainConfig(
         map_name=_MAP.value, agent=_AGENT.value, screen_size=_SCREEN.value,
-        minimap_size=_MINIMAP.value, screen_features=parse_layers(_SCREEN_FEATURES.value),
-        minimap_features=parse_layers(_MINIMAP_FEATURES.value),
-        functions=parse_layers(_FUNCTIONS.value), step_mul=_STEP_MUL.value,
+        minimap_size=_MINIMAP.value, screen_features=parse_names(_SCREEN_FEATURES.value),
+        minimap_features=parse_names(_MINIMAP_FEATURES.value),
+        functions=parse_names(_FUNCTIONS.value), step_mul=_STEP_MUL.value,
         num_envs=_NUM_ENVS.value, unroll_length=_UNROLL.value, total_steps=_TOTAL.value,
         learning_rate=_LR.value, discount=_DISCOUNT.value, value_weight=_VALUE.value,
         entropy_weight=_ENTROPY.value, rmsprop_decay=_DECAY.value,

@@ -15,7 +15,7 @@ from sc2jax.experiments import evaluation, trainer
 from sc2jax.experiments import sweeping as sampling
 from sc2jax.experiments.actor import make_unroll
 from sc2jax.experiments.compiled_loop import make_train_chunk
-from sc2jax.experiments.config import TrainConfig, parse_layers
+from sc2jax.experiments.config import TrainConfig, parse_names
 from sc2jax.experiments.host_actor import HostActor, run_split_loop
 from sc2jax.experiments.learner import annealed_learning_rate
 from sc2jax.experiments.metrics_log import read_csv
@@ -53,7 +53,7 @@ def test_config_rejects_bad_values(change, message):
 
 def test_config_json_roundtrip_and_layers():
     assert TrainConfig.from_json(json.loads(json.dumps(TINY.to_json()))) == TINY
-    assert parse_layers("all") is None and parse_layers("a, b") == ("a", "b")
+    assert parse_names("all") is None and parse_names("a, b") == ("a", "b")
     assert TINY.steps_per_update == 8 and TINY.total_updates == 4
     with pytest.raises(ValueError, match="unknown config keys"):
         TrainConfig.from_json({"bogus": 1})
