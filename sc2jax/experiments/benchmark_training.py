@@ -8,8 +8,8 @@ acting, then one update) and its parts: the K environment steps alone (random
 actions), the actor's unroll (environments and acting) and the learner's update.
 The shares are environment = env / step, acting = (unroll - env) / step and learning
 = update / step (they need not sum to 1: XLA fuses the parts differently in the
-whole step). With --write the table replaces the "Training throughput" section of
-docs/benchmarks.md.
+whole step). With --write the table replaces the "Training throughput on CPU" (or GPU) section
+of docs/benchmarks.md.
 """
 
 from __future__ import annotations
@@ -29,7 +29,7 @@ from sc2jax.experiments.config import TrainConfig
 from sc2jax.experiments.markdown import write_section
 from sc2jax.experiments.trainer import build
 
-SECTION = "## Training throughput"
+SECTION = "## Training throughput on {platform}"
 
 
 def _time(fn, *args, repeats: int) -> float:
@@ -109,7 +109,8 @@ def main() -> None:
             print(table(rows[-1:], "").strip().splitlines()[-1], flush=True)
     device = jax.devices()[0]
     command = " ".join(["python -m sc2jax.experiments.benchmark_training", *sys.argv[1:]])
-    header = (f"{SECTION}\n\n`{command}` "
+    section = SECTION.format(platform=device.platform.upper())
+    header = (f"{section}\n\n`{command}` "
               f"({args.map}, all feature layers, {args.num_envs} environments, K = "
               f"{args.unroll_length}, {device.platform} {device.device_kind}, "
               f"{os.cpu_count()} cores, {platform.machine()}, jax {jax.__version__}). "
