@@ -13,6 +13,7 @@ from sc2jax.environment.minigames import MAPS
 from sc2jax.environment.specs import ObservationFormat
 from sc2jax.experiments.actor import function_mask
 from sc2jax.experiments.checks import check_positive_int
+from sc2jax.experiments.learner import OptimiserConfig
 from sc2jax.losses.learner_loss import OFF_POLICY_CORRECTIONS
 from sc2jax.networks.factory import NETWORKS
 
@@ -38,6 +39,7 @@ class TrainConfig:
       unroll_length: K, agent steps per trajectory and update.
       total_steps: agent steps of the run, over all environments.
       learning_rate: the initial RMSProp learning rate.
+      warmup_updates: updates over which the rate first rises linearly from 0 (0: none).
       discount: γ.
       value_weight: β.
       entropy_weight: η, for the function id and each argument.
@@ -62,6 +64,7 @@ class TrainConfig:
     unroll_length: int = 40
     total_steps: int = 1_000_000
     learning_rate: float = 5e-4
+    warmup_updates: int = 0
     discount: float = 0.99
     value_weight: float = 0.5
     entropy_weight: float = 1e-3
@@ -91,6 +94,7 @@ class TrainConfig:
         for name in ("step_mul", "num_envs", "unroll_length", "total_steps",
                      "updates_per_chunk"):
             check_positive_int(name, getattr(self, name))
+        OptimiserConfig(warmup_updates=self.warmup_updates)  # checks the warm-up
         for name in ("learning_rate", "rmsprop_epsilon", "checkpoint_interval_s"):
             _positive_float(name, getattr(self, name))
         for name in ("value_weight", "entropy_weight", "max_grad_norm"):

@@ -43,12 +43,15 @@ class OptimiserConfig:
       max_grad_norm: gradients are clipped to this global norm (0: no clipping).
       anneal_updates: updates over which the learning rate falls linearly to half its
         initial value (then stays there).
+      warmup_updates: updates over which the rate first rises linearly from 0 (0: none,
+        the paper's schedule).
     """
 
     decay: float = 0.99
     epsilon: float = 1e-5
     max_grad_norm: float = 10.0
     anneal_updates: int = 1
+    warmup_updates: int = 0
 
     def __post_init__(self):
         if not 0.0 <= self.decay < 1.0:
@@ -58,6 +61,9 @@ class OptimiserConfig:
         if not self.max_grad_norm >= 0:
             raise ValueError(f"max_grad_norm must be >= 0, got {self.max_grad_norm!r}")
         check_positive_int("anneal_updates", self.anneal_updates)
+        if isinstance(self.warmup_updates, bool) or not isinstance(
+                self.warmup_updates, int) or self.warmup_updates < 0:
+            raise ValueError(f"warmup_updates must be an int >= 0, got {self.warmup_updates!r}")
 
 
 class LearnerState(struct.PyTreeNode):
@@ -84,11 +90,15 @@ class Learner(NamedTuple):
     update: Callable[[LearnerState, Trajectory], tuple[LearnerState, dict[str, jax.Array]]]
 
 
-def annealed_learning_rate(initial: jax.Array, update: jax.Array,
-                           anneal_updates: int) -> jax.Array:
-    """The paper's schedule: linear from `initial` to `initial / 2` over `anneal_updates`."""
-    fraction = jnp.minimum(update.astype(jnp.float32) / anneal_updates, 1.0)
-    return initial * (1.0 - 0.5 * fraction)
+def annealed_learning_rate(initial: jax.Array, update: jax.Array, anneal_updates: int,
+                           warmup_updates: int = 0) -> jax.Array:
+    """The paper's schedule: linear from `initial` to `initial / 2` over `anneal_updates`,
+    times a linear warm-up from 0 over the first `warmup_updates` (update u uses
+    (u + 1) / warmup_updates of the rate)."""
+    step = update.astype(jnp.float32)
+    fraction = jnp.minimum(step / anneal_updates, 1.0)
+    warmup = jnp.minimum((step + 1.0) / max(warmup_updates, 1), 1.0)
+    return initial * warmup * (1.0 - 0.5 * fraction)
 
 
 def init_params(network: nn.Module, key: jax.Array, observation: Mapping[str, jax.Array]):
@@ -124,7 +134,8 @@ def make_learner(network: nn.Module, loss_fn: LossFn, config: OptimiserConfig) -
         grad_fn = jax.grad(loss_fn, has_aux=True)
         grads, metrics = grad_fn(state.params, trajectory)
         steps, opt_state = direction.update(grads, state.opt_state, state.params)
-        rate = annealed_learning_rate(state.learning_rate, state.update, config.anneal_updates)
+        rate = annealed_learning_rate(state.learning_rate, state.update, config.anneal_updates,
+                                      config.warmup_updates)
         params = optax.apply_updates(state.params, jax.tree.map(lambda s: -rate * s, steps))
         metrics = dict(metrics, learning_rate=rate, grad_norm=optax.tree.norm(grads))
         return LearnerState(params, opt_state, state.update + 1, state.learning_rate), metrics

@@ -50,6 +50,8 @@ _TOTAL = flags.DEFINE_integer("total_steps", _DEFAULTS.total_steps,
                               "Agent steps of the run, over all environments.")
 _LR = flags.DEFINE_float("learning_rate", _DEFAULTS.learning_rate,
                          "Initial learning rate (annealed linearly to half).")
+_WARMUP = flags.DEFINE_integer("warmup_updates", _DEFAULTS.warmup_updates,
+                               "Updates over which the learning rate first rises from 0.")
 _DISCOUNT = flags.DEFINE_float("discount", _DEFAULTS.discount, "γ.")
 _VALUE = flags.DEFINE_float("value_weight", _DEFAULTS.value_weight, "β.")
 _ENTROPY = flags.DEFINE_float("entropy_weight", _DEFAULTS.entropy_weight,
@@ -77,7 +79,8 @@ def config_from_flags() -> TrainConfig:
         minimap_features=parse_names(_MINIMAP_FEATURES.value),
         functions=parse_names(_FUNCTIONS.value), step_mul=_STEP_MUL.value,
         num_envs=_NUM_ENVS.value, unroll_length=_UNROLL.value, total_steps=_TOTAL.value,
-        learning_rate=_LR.value, discount=_DISCOUNT.value, value_weight=_VALUE.value,
+        learning_rate=_LR.value, warmup_updates=_WARMUP.value, discount=_DISCOUNT.value,
+        value_weight=_VALUE.value,
         entropy_weight=_ENTROPY.value, rmsprop_decay=_DECAY.value,
         rmsprop_epsilon=_EPSILON.value, max_grad_norm=_CLIP.value,
         off_policy_correction=_CORRECTION.value, seed=_SEED.value,

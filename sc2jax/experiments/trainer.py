@@ -92,7 +92,8 @@ def build(config: TrainConfig) -> Agent:
         off_policy_correction=config.off_policy_correction)
     optimiser = OptimiserConfig(decay=config.rmsprop_decay, epsilon=config.rmsprop_epsilon,
                                 max_grad_norm=config.max_grad_norm,
-                                anneal_updates=config.total_updates)
+                                anneal_updates=config.total_updates,
+                                warmup_updates=config.warmup_updates)
     return Agent(config, sim, network, actor_core(network, functions=config.functions),
                  make_learner(network, loss, optimiser))
 

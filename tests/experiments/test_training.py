@@ -67,6 +67,16 @@ def test_learning_rate_anneals_linearly_to_half():
         pytest.approx(5e-4))
 
 
+def test_learning_rate_warms_up_linearly():
+    # Update 1 of a 4-update warm-up uses 2/4 of the annealed rate 1e-3 * (1 - 0.5 / 10).
+    assert float(annealed_learning_rate(jnp.float32(1e-3), jnp.int32(1), 10, 4)) == (
+        pytest.approx(0.5 * 9.5e-4))
+    assert float(annealed_learning_rate(jnp.float32(1e-3), jnp.int32(3), 10, 4)) == (
+        pytest.approx(8.5e-4))
+    with pytest.raises(ValueError, match="warmup_updates must be an int >= 0, got -1"):
+        TrainConfig(warmup_updates=-1)
+
+
 def test_unroll_emits_a_consistent_trajectory(agent):
     unroll = make_unroll(agent.sim, agent.core, 6)
     state = agent.initial_state(jax.random.PRNGKey(0))
