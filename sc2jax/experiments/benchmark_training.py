@@ -8,8 +8,8 @@ acting, then one update) and its parts: the K environment steps alone (random
 actions), the actor's unroll (environments and acting) and the learner's update.
 The shares are environment = env / step, acting = (unroll - env) / step and learning
 = update / step (they need not sum to 1: XLA fuses the parts differently in the
-whole step). With --write the table replaces the "Training throughput on CPU" (or GPU) section
-of docs/benchmarks.md.
+whole step). With --write the table replaces the "Training throughput on CPU" (or
+"on GPU") section of docs/benchmarks.md.
 """
 
 from __future__ import annotations
