@@ -29,7 +29,6 @@ from __future__ import annotations
 import json
 import logging
 import os
-import tempfile
 from collections.abc import Mapping
 from typing import Any
 
@@ -37,6 +36,7 @@ import jax
 import orbax.checkpoint as ocp
 from absl import logging as absl_logging
 
+from sc2jax.experiments.atomic import atomic_write, fsync
 from sc2jax.experiments.checks import check_positive_int
 
 _STATE = "state"
@@ -207,40 +207,15 @@ def write_json_atomic(path: str | os.PathLike, obj: Any, *, indent: int | None =
     Raises:
       TypeError: if `obj` is not JSON-serialisable (`path` is then left untouched).
     """
-    path = os.path.abspath(os.fspath(path))
-    directory = os.path.dirname(path)
-    os.makedirs(directory, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(dir=directory, prefix=f".{os.path.basename(path)}.",
-                               suffix=".tmp")
-    try:
-        with os.fdopen(fd, "w") as f:
-            os.fchmod(f.fileno(), 0o644)  # mkstemp makes it 0o600.
-            json.dump(obj, f, indent=indent)
-            f.flush()
-            os.fsync(f.fileno())
-        os.replace(tmp, path)
-    except BaseException:
-        if os.path.exists(tmp):
-            os.remove(tmp)
-        raise
-    _fsync(directory, directory=True)
-
-
-def _fsync(path: str, directory: bool = False) -> None:
-    if directory and not hasattr(os, "O_DIRECTORY"):  # Windows cannot open a directory.
-        return
-    fd = os.open(path, os.O_RDONLY | (os.O_DIRECTORY if directory else 0))
-    try:
-        os.fsync(fd)
-    finally:
-        os.close(fd)
+    with atomic_write(path) as f:
+        json.dump(obj, f, indent=indent)
 
 
 def _fsync_tree(root: str) -> None:
     """Fsyncs every file and directory under `root`, then `root`'s parent."""
     for dirpath, _, filenames in os.walk(root):
         for name in filenames:
-            _fsync(os.path.join(dirpath, name))
-        _fsync(dirpath, directory=True)
-    _fsync(os.path.dirname(root), directory=True)
+            fsync(os.path.join(dirpath, name))
+        fsync(dirpath, directory=True)
+    fsync(os.path.dirname(root), directory=True)
 

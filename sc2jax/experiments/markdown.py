@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import os
 
+from sc2jax.experiments.atomic import atomic_write
+
 
 def write_section(path: str, section: str) -> None:
     """Replaces (or appends) a `## ` section of a markdown file, keeping the others.
@@ -38,7 +40,5 @@ def write_section(path: str, section: str) -> None:
             new += "\n"  # a blank line before the next section
         text = text[:start] + new + rest
     text = text.rstrip("\n") + "\n"
-    tmp = f"{path}.tmp{os.getpid()}"
-    with open(tmp, "w") as f:
+    with atomic_write(path) as f:
         f.write(text)
-    os.replace(tmp, path)

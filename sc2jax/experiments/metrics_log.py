@@ -16,11 +16,11 @@ import csv
 import io
 import math
 import os
-import tempfile
 from collections.abc import Mapping, Sequence
 
 import numpy as np
 
+from sc2jax.experiments.atomic import atomic_write
 from sc2jax.experiments.progress import Progress
 
 __all__ = ["CsvLog", "Progress", "read_csv"]
@@ -122,10 +122,8 @@ class CsvLog:
             kept = [row for row in rows if not row[column] or float(row[column]) <= resume_step]
         except ValueError as e:
             raise ValueError(f"{self.path!r} has a 'step' cell that is not a number: {e}") from e
-        fd, tmp = tempfile.mkstemp(dir=os.path.dirname(os.path.abspath(self.path)))
-        with os.fdopen(fd, "w", newline="") as f:
+        with atomic_write(self.path, newline="") as f:
             csv.writer(f, lineterminator="\n").writerows([header, *kept])
-        os.replace(tmp, self.path)
         self.fieldnames = header
         self._file = open(self.path, "a", newline="")  # Closed by close().
         self._writer = csv.writer(self._file, lineterminator="\n")

@@ -9,10 +9,11 @@ from __future__ import annotations
 
 import math
 import os
-import tempfile
 from collections.abc import Mapping
 
 import numpy as np
+
+from sc2jax.experiments.atomic import atomic_write
 
 
 def smooth(y: np.ndarray, window: int) -> np.ndarray:
@@ -121,15 +122,6 @@ def plot_learning_curves(runs: Mapping[str, tuple[np.ndarray, np.ndarray]],
     fig.tight_layout()
 
     path = os.fspath(path)
-    directory = os.path.dirname(os.path.abspath(path))
-    os.makedirs(directory, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(dir=directory, suffix=".png.tmp")
-    try:
-        with os.fdopen(fd, "wb") as f:
-            fig.savefig(f, format="png")
-        os.chmod(tmp, 0o644)  # mkstemp creates files readable by their owner only.
-        os.replace(tmp, path)
-    except BaseException:
-        os.unlink(tmp)
-        raise
+    with atomic_write(path, "wb") as f:
+        fig.savefig(f, format="png")
     return path
