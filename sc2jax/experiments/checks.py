@@ -7,3 +7,9 @@ def check_positive_int(name: str, value: object) -> None:
     """Raises ValueError naming `name` unless `value` is an int >= 1 (bools are not)."""
     if isinstance(value, bool) or not isinstance(value, int) or value < 1:
         raise ValueError(f"{name} must be a positive int, got {value!r}")
+
+
+def check_non_negative_int(name: str, value: object) -> None:
+    """Raises ValueError naming `name` unless `value` is an int >= 0 (bools are not)."""
+    if isinstance(value, bool) or not isinstance(value, int) or value < 0:
+        raise ValueError(f"{name} must be an int >= 0, got {value!r}")

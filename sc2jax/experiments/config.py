@@ -12,8 +12,7 @@ import dataclasses
 from sc2jax.environment.minigames import MAPS
 from sc2jax.environment.specs import ObservationFormat
 from sc2jax.experiments.actor import function_mask
-from sc2jax.experiments.checks import check_positive_int
-from sc2jax.experiments.learner import OptimiserConfig
+from sc2jax.experiments.checks import check_non_negative_int, check_positive_int
 from sc2jax.losses.learner_loss import OFF_POLICY_CORRECTIONS
 from sc2jax.networks.factory import NETWORKS
 
@@ -94,7 +93,6 @@ class TrainConfig:
         for name in ("step_mul", "num_envs", "unroll_length", "total_steps",
                      "updates_per_chunk"):
             check_positive_int(name, getattr(self, name))
-        OptimiserConfig(warmup_updates=self.warmup_updates)  # checks the warm-up
         for name in ("learning_rate", "rmsprop_epsilon", "checkpoint_interval_s"):
             _positive_float(name, getattr(self, name))
         for name in ("value_weight", "entropy_weight", "max_grad_norm"):
@@ -104,9 +102,8 @@ class TrainConfig:
             raise ValueError(f"discount must be in [0, 1], got {self.discount!r}")
         if not 0.0 <= self.rmsprop_decay < 1.0:
             raise ValueError(f"rmsprop_decay must be in [0, 1), got {self.rmsprop_decay!r}")
-        if isinstance(self.eval_episodes, bool) or not isinstance(
-                self.eval_episodes, int) or self.eval_episodes < 0:
-            raise ValueError(f"eval_episodes must be an int >= 0, got {self.eval_episodes!r}")
+        for name in ("warmup_updates", "eval_episodes"):
+            check_non_negative_int(name, getattr(self, name))
         self.observation_format()  # checks the resolutions and layer names
         function_mask(self.functions)  # checks the action set
 

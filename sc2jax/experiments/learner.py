@@ -23,7 +23,7 @@ import jax.numpy as jnp
 import optax
 from flax import struct
 
-from sc2jax.experiments.checks import check_positive_int
+from sc2jax.experiments.checks import check_non_negative_int, check_positive_int
 from sc2jax.losses.learner_loss import LossFn, Trajectory
 from sc2jax.networks.fully_conv_lstm import FullyConvLSTM
 
@@ -61,9 +61,7 @@ class OptimiserConfig:
         if not self.max_grad_norm >= 0:
             raise ValueError(f"max_grad_norm must be >= 0, got {self.max_grad_norm!r}")
         check_positive_int("anneal_updates", self.anneal_updates)
-        if isinstance(self.warmup_updates, bool) or not isinstance(
-                self.warmup_updates, int) or self.warmup_updates < 0:
-            raise ValueError(f"warmup_updates must be an int >= 0, got {self.warmup_updates!r}")
+        check_non_negative_int("warmup_updates", self.warmup_updates)
 
 
 class LearnerState(struct.PyTreeNode):
