@@ -90,19 +90,19 @@ def _select_targets(units: Units, data, gap, enemy):
     return jnp.where(order == Order.ATTACK_UNIT, ordered, auto)
 
 
-def game_loop(units: Units, key, playable, geometry_pathable=None) -> tuple[Units, LoopEvents]:
+def game_loop(units: Units, key, playable, bursts: bool = False) -> tuple[Units, LoopEvents]:
     """Advances all units by one game loop.
 
     Args:
       units: the unit slots.
       key: RNG key for weapon-cooldown jitter.
       playable: (x0, y0, x1, y1), the area units are kept inside.
-      geometry_pathable: unused; the mini-games' playable areas are flat and open.
+      bursts: (static) whether the map has units with a suicide splash attack (`burst`
+        in the unit data); maps without them skip its cost.
 
     Returns:
       The new units and the loop's events.
     """
-    del geometry_pathable
     n = units.num_slots
     data = _data(units.type)
     alive = units.alive
@@ -158,12 +158,22 @@ def game_loop(units: Units, key, playable, geometry_pathable=None) -> tuple[Unit
     # its cooldown plus a jitter of -1..+2 loops. A ready weapon that does not fire
     # gains no credit.
     fires = in_range & (units.cooldown <= 0.0) & alive
-    tdata_attr = data.attributes[safe_target]
-    light = (tdata_attr & Attribute.LIGHT) > 0
-    per_hit = jnp.maximum(data.damage + jnp.where(light, data.bonus_light, 0.0)
-                          - data.armor[safe_target], 0.5)
-    hits = jnp.where(fires, per_hit, 0.0)
+    per_hit = _damage_per_hit(data)
+    single = fires & (data.burst <= 0) if bursts else fires
+    hits = jnp.where(single, per_hit[rows, safe_target], 0.0)
     damage = jnp.zeros(n, jnp.float32).at[safe_target].add(hits)
+    # Volatile bursts: a unit that attacks with one dies, and one killed by this loop's
+    # other damage bursts too (a single round: no map has bursting units on both sides).
+    exploded = jnp.zeros(n, bool)
+    if bursts:
+        exploded = fires & (data.burst > 0)
+        reach = enemy & (dist - data.radius[None, :] <= data.burst[:, None])
+        splash = jnp.where(reach, per_hit, 0.0)
+        received = lambda by: jnp.sum(jnp.where(by[:, None], splash, 0.0), axis=0)  # noqa: E731
+        killed = alive & (units.health - damage - received(exploded) <= 0) & ~exploded
+        exploding = exploded | (killed & (data.burst > 0))
+        hits = hits + jnp.where(exploding, splash.sum(axis=1), 0.0)
+        damage = damage + received(exploding)
     jitter = jax.random.randint(key, (n,), -1, 3).astype(jnp.float32)
     ready = units.cooldown <= 0.0
     cooldown = jnp.where(fires, units.cooldown + data.cooldown + jitter - 1.0,
@@ -176,7 +186,7 @@ def game_loop(units: Units, key, playable, geometry_pathable=None) -> tuple[Unit
     new_target = jnp.where(retaliate, attacker, target)
 
     health = units.health - damage
-    died = alive & (data.max_health > 0) & (health <= 0)
+    died = alive & (((data.max_health > 0) & (health <= 0)) | exploded)
     alive = alive & ~died
 
     own = units.owner == Owner.SELF
@@ -191,6 +201,14 @@ def game_loop(units: Units, key, playable, geometry_pathable=None) -> tuple[Unit
         target=jnp.where(alive, new_target, NO_TARGET),
         selected=units.selected & alive, groups=jnp.where(alive, units.groups, 0))
     return _complete_orders(units, pos, step, goal_dist, has_target, moving), events
+
+
+def _damage_per_hit(data):
+    """float32[N, N]: the damage one attack of i deals to j: damage, plus the bonus
+    against Light targets, minus armour, and at least 0.5 (the game's minimum)."""
+    light = (data.attributes & Attribute.LIGHT) > 0
+    bonus = jnp.where(light[None, :], data.bonus_light[:, None], 0.0)
+    return jnp.maximum(data.damage[:, None] + bonus - data.armor[None, :], 0.5)
 
 
 def _complete_orders(units: Units, old_pos, step, goal_dist, has_target, moving) -> Units:

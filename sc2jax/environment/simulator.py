@@ -230,7 +230,8 @@ class Simulator:
         def one_loop(state: EnvState, _):
             running = state.outcome == Outcome.RUNNING
             key, loop_key = jax.random.split(state.key)
-            units, events = game_loop(state.units, loop_key, game.geometry.playable)
+            units, events = game_loop(state.units, loop_key, game.geometry.playable,
+                                      bursts=game.has_bursts)
             enemy_died = events.died & (state.units.owner == Owner.ENEMY)
             killed_value = jnp.sum(jnp.where(enemy_died, value[state.units.type], 0))
             vital = state.score_by_vital.at[0, 0].add(events.damage_dealt).at[1, 0].add(

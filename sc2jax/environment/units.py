@@ -62,6 +62,8 @@ class UnitData(NamedTuple):
       is_army: counts for `select_army` and `army_count`.
       food: supply used.
       mineral_cost, vespene_cost: cost.
+      burst: the radius of a suicide splash attack (0: none), world units. Such a unit
+        (the Baneling's Volatile Burst) dies when it attacks, and also bursts when killed.
     """
 
     sc2_id: np.ndarray
@@ -82,6 +84,7 @@ class UnitData(NamedTuple):
     food: np.ndarray
     mineral_cost: np.ndarray
     vespene_cost: np.ndarray
+    burst: np.ndarray
 
 
 _L, _A, _B, _M, _S = (Attribute.LIGHT, Attribute.ARMORED, Attribute.BIOLOGICAL,
@@ -120,6 +123,11 @@ _TABLE = {
 }
 
 
+# Volatile Burst: splash radius from the unit's centre to a target's edge. Its damage is
+# the table's (20, +15 against Light: 35 to a Marine in every game version).
+_BURST = {UnitType.BANELING: 2.2}
+
+
 def _build() -> UnitData:
     rows = [_TABLE[t] for t in UnitType]
     cols = list(zip(*rows))
@@ -135,7 +143,8 @@ def _build() -> UnitData:
         cooldown=f32(cooldown) * LOOPS_PER_SECOND,
         range=f32(rng), sight=f32(sight), acquire=f32(acquire),
         attributes=i32([int(a) for a in attributes]), is_army=np.asarray(is_army, bool),
-        food=f32(food), mineral_cost=i32(minerals), vespene_cost=i32(vespene))
+        food=f32(food), mineral_cost=i32(minerals), vespene_cost=i32(vespene),
+        burst=f32([_BURST.get(t, 0.0) for t in UnitType]))
 
 
 UNIT_DATA = _build()

@@ -4,11 +4,14 @@ from sc2jax.environment.minigames.base import MiniGame
 from sc2jax.environment.minigames.collect_mineral_shards import CollectMineralShards
 from sc2jax.environment.minigames.find_and_defeat_zerglings import FindAndDefeatZerglings
 from sc2jax.environment.minigames.move_to_beacon import MoveToBeacon
+from sc2jax.environment.minigames.wave_combat import DefeatRoaches, DefeatZerglingsAndBanelings
 
 MAPS = {
     "MoveToBeacon": MoveToBeacon,
     "CollectMineralShards": CollectMineralShards,
     "FindAndDefeatZerglings": FindAndDefeatZerglings,
+    "DefeatRoaches": DefeatRoaches,
+    "DefeatZerglingsAndBanelings": DefeatZerglingsAndBanelings,
 }
 
 

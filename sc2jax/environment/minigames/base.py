@@ -97,6 +97,11 @@ class MiniGame:
         return tuple(out)
 
     @property
+    def has_bursts(self) -> bool:
+        """Whether a unit type of the map has a suicide splash attack (the Baneling)."""
+        return any(UNIT_DATA.burst[t] > 0 for t in self.unit_types)
+
+    @property
     def max_radius(self) -> float:
         """The largest radius of the map's unit types, world units."""
         return float(max(UNIT_DATA.radius[t] for t in self.unit_types))

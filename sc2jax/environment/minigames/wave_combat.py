@@ -1,0 +1,164 @@
+"""DefeatRoaches and DefeatZerglingsAndBanelings: nine marines against waves of Zerg.
+
+One script serves both maps (read from their MapScript.galaxy and Regions; see
+reference/pysc2_facts.md §4):
+
+- a random side: the marines at a random point of one spawn region, the enemies at a
+  random point of the other;
+- 9 preselected marines in a vertical line at y offsets 0, +1, -1, +2, -2, ... +4, -4;
+- DefeatRoaches: 4 roaches at y offsets +0.5, +1.5, -0.5, -1.5. DefeatZerglingsAndBanelings:
+  6 zerglings and 4 banelings created at one point (the game spreads them; here a fixed
+  hexagonal packing);
+- +10 per roach (+5 per zergling or baneling, exploding banelings included), -1 per marine;
+- when every enemy is dead, a wave reset in the same game loop: each surviving marine is
+  replaced by a new one (a new tag) that keeps its health, reinforcements join (+5 marines
+  in DefeatRoaches, +4 in DefeatZerglingsAndBanelings), a side is drawn again, all marines
+  line up (survivors first) and are selected, and a new wave of enemies appears;
+- the end at the 120 s timer, or defeat when every marine is dead.
+
+The enemies are created idle and fight as idle units do (`dynamics`): they acquire
+marines that come within range and turn on their attackers.
+
+Marines occupy slots [0, MARINE_SLOTS); a wave reset that would exceed them adds fewer
+reinforcements (docs/fidelity.md).
+"""
+
+from __future__ import annotations
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+
+from sc2jax.environment.minigames.base import MiniGame, flat_geometry, place, uniform_in_rect
+from sc2jax.environment.state import Outcome, Owner, Units
+from sc2jax.environment.units import UNIT_DATA, UnitType
+
+REGION_1 = (22.0, 20.0, 44.0, 36.0)  # Playable Space (22.0002 in the map).
+LEFT = (23.9748, 25.0637, 27.9787, 31.0483)  # Spawn Region Left (region 4).
+RIGHT = (38.0207, 25.0427, 42.0351, 31.0773)  # Spawn Region Right (region 5).
+CAMERA = (33.0, 25.0)  # centre(region 1) + 3 at 270 degrees.
+START_MARINES = 9
+MARINE_SLOTS = 64
+
+# Ten small units created at one point: the centre, a ring of six at one diameter
+# (0.75), and three at sqrt(3) diameters.
+_HEX = np.concatenate([
+    np.zeros((1, 2)),
+    0.75 * np.stack([np.cos(np.arange(6) * np.pi / 3), np.sin(np.arange(6) * np.pi / 3)], -1),
+    0.75 * np.sqrt(3) * np.stack([np.cos(np.deg2rad([30, 150, 270])),
+                                  np.sin(np.deg2rad([30, 150, 270]))], -1)]).astype(np.float32)
+
+
+def lineup_offset(rank):
+    """int32[...]: the y offset of the marine of 0-based `rank` in the script's line:
+    0, +1, -1, +2, -2, ... (the script's (i / 2) * (1 - 2 * (i % 2)) for i = rank + 1)."""
+    i = rank + 1
+    return (i // 2) * (1 - 2 * (i % 2))
+
+
+def draw_sides(key):
+    """(marine point, enemy point), each float32[2]: one of the spawn regions at random
+    for the marines, the other for the enemies."""
+    k_side, k_left, k_right = jax.random.split(key, 3)
+    left, right = uniform_in_rect(k_left, LEFT), uniform_in_rect(k_right, RIGHT)
+    flip = jax.random.bernoulli(k_side)
+    return jnp.where(flip, right, left), jnp.where(flip, left, right)
+
+
+def lined_up(point, rank):
+    """float32[M, 2]: marines of the given ranks (int32[M]) in a vertical line at `point`,
+    kept inside the playable area."""
+    pos = point + jnp.stack([jnp.zeros_like(rank), lineup_offset(rank)], -1).astype(jnp.float32)
+    x0, y0, x1, y1 = REGION_1
+    return jnp.clip(pos, jnp.array([x0, y0]), jnp.array([x1, y1]))
+
+
+class WaveCombat(MiniGame):
+    """The script shared by both maps; subclasses set the enemies and the numbers.
+
+    Class attributes:
+      ENEMIES: the enemy unit types, one per enemy slot, in creation order.
+      OFFSETS: float32[E, 2] where each enemy is created, relative to the enemy point.
+      KILL_REWARD: score per enemy death.
+      REINFORCEMENTS: marines added at each wave reset.
+    """
+
+    ENEMIES: tuple[UnitType, ...] = ()
+    OFFSETS: np.ndarray = np.zeros((0, 2), np.float32)
+    KILL_REWARD = 0
+    REINFORCEMENTS = 0
+
+    def __init__(self, name):
+        super().__init__(name=name, time_limit=120, num_slots=MARINE_SLOTS + len(self.ENEMIES),
+                         geometry=flat_geometry(REGION_1), fog=False, camera=CAMERA,
+                         unit_types=(UnitType.MARINE,) + tuple(sorted(set(self.ENEMIES))))
+
+    @property
+    def enemy_slots(self) -> jax.Array:
+        return jnp.arange(MARINE_SLOTS, self.num_slots)
+
+    def _spawn_enemies(self, units: Units, point, next_tag):
+        return place(units, self.enemy_slots, jnp.asarray(self.ENEMIES, jnp.int32), Owner.ENEMY,
+                     point + jnp.asarray(self.OFFSETS), next_tag)
+
+    def init(self, key):
+        marine_point, enemy_point = draw_sides(key)
+        units = Units.empty(self.num_slots)
+        marines = jnp.arange(START_MARINES)
+        units, tag = place(units, marines, UnitType.MARINE, Owner.SELF,
+                           lined_up(marine_point, marines), 0, selected=True)
+        units, tag = self._spawn_enemies(units, enemy_point, tag)
+        return units, (), tag
+
+    def wave_reset(self, state):
+        """The next wave: survivors replaced (keeping health), reinforcements, a new side,
+        the marines lined up and selected, new enemies."""
+        key, sub = jax.random.split(state.key)
+        marine_point, enemy_point = draw_sides(sub)
+        old = state.units
+        survivors = old.alive[:MARINE_SLOTS]
+        free_rank = jnp.cumsum(~survivors) - 1
+        fresh = ~survivors & (free_rank < self.REINFORCEMENTS)
+        marines = survivors | fresh
+        rank = jnp.where(survivors, jnp.cumsum(survivors) - 1, jnp.sum(survivors) + free_rank)
+        units, _ = place(old, jnp.arange(MARINE_SLOTS), UnitType.MARINE, Owner.SELF,
+                         lined_up(marine_point, rank), 0, selected=marines)
+        full = UNIT_DATA.max_health[UnitType.MARINE]
+        health = jnp.where(survivors, old.health[:MARINE_SLOTS], full)
+        units = units.replace(
+            alive=units.alive.at[:MARINE_SLOTS].set(marines),
+            tag=units.tag.at[:MARINE_SLOTS].set(jnp.where(marines, state.next_tag + rank, 0)),
+            health=units.health.at[:MARINE_SLOTS].set(jnp.where(marines, health, 0.0)))
+        units, tag = self._spawn_enemies(units, enemy_point,
+                                         state.next_tag + jnp.sum(marines, dtype=jnp.int32))
+        return state.replace(units=units, next_tag=tag, key=key)
+
+    def on_loop(self, state, events):
+        kills = jnp.sum(events.died[MARINE_SLOTS:])
+        losses = jnp.sum(events.died[:MARINE_SLOTS])
+        units = state.units
+        defeat = ~units.alive[:MARINE_SLOTS].any()
+        state = state.replace(score=state.score + self.KILL_REWARD * kills - losses,
+                              outcome=jnp.where(defeat, int(Outcome.DEFEAT), state.outcome))
+        wave = ~defeat & ~units.alive[MARINE_SLOTS:].any()
+        return jax.lax.cond(wave, self.wave_reset, lambda s: s, state)
+
+
+class DefeatRoaches(WaveCombat):
+    ENEMIES = (UnitType.ROACH,) * 4
+    OFFSETS = np.array([[0.0, 0.5], [0.0, 1.5], [0.0, -0.5], [0.0, -1.5]], np.float32)
+    KILL_REWARD = 10
+    REINFORCEMENTS = 5
+
+    def __init__(self):
+        super().__init__("DefeatRoaches")
+
+
+class DefeatZerglingsAndBanelings(WaveCombat):
+    ENEMIES = (UnitType.ZERGLING,) * 6 + (UnitType.BANELING,) * 4
+    OFFSETS = _HEX
+    KILL_REWARD = 5
+    REINFORCEMENTS = 4
+
+    def __init__(self):
+        super().__init__("DefeatZerglingsAndBanelings")

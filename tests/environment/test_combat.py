@@ -1,0 +1,223 @@
+"""Exact combat scenes and the wave script of DefeatRoaches and DefeatZerglingsAndBanelings.
+
+Scenes run the jitted game loop on hand-built units (no map step is compiled here);
+numbers are the game's (reference/pysc2_facts.md §7): marine 6 damage, range 5, cooldown
+13.7728 loops; roach 145 HP, armour 1, 16 damage, range 4, cooldown 32 loops; baneling
+30 HP, Volatile Burst 20 (+15 against Light) in a 2.2 radius (centre to target edge);
+marine and zergling radius 0.375, roach 0.5; weapon jitter -1..+2 loops per shot.
+"""
+
+import functools
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+import pytest
+
+from sc2jax.environment.dynamics import LoopEvents, game_loop
+from sc2jax.environment.minigames import get_map
+from sc2jax.environment.minigames.wave_combat import LEFT, MARINE_SLOTS, RIGHT, lineup_offset
+from sc2jax.environment.state import Order, Outcome, Owner
+
+from .conftest import small_sim
+from .test_mechanics import make_units, set_unit
+
+SLOTS = 8
+PLAYABLE = (22.0, 20.0, 44.0, 36.0)
+_LOOP = jax.jit(functools.partial(game_loop, playable=PLAYABLE, bursts=True))
+
+M, Z, R, B = 1, 2, 3, 4  # UnitType: marine, zergling, roach, baneling.
+SELF, ENEMY = Owner.SELF, Owner.ENEMY
+
+
+def units_of(spec, orders=()):
+    """Units from (slot, type, owner, (x, y)) rows; `orders` are (slot, Order, target
+    slot or None, (x, y))."""
+    units = make_units(SLOTS, [(s, t, o, xy, False) for s, t, o, xy in spec])
+
+    class Holder:  # set_unit works on anything with `.units` and `.replace`.
+        def __init__(self, units):
+            self.units = units
+
+        def replace(self, units):
+            return Holder(units)
+
+    holder = Holder(units)
+    for slot, order, target, xy in orders:
+        holder = set_unit(holder, slot, order=(order, xy))
+        if target is not None:
+            holder = set_unit(holder, slot, order_unit=(target, -1, -1, -1))
+    return holder.units
+
+
+def run(units, loops, seed=0):
+    """Runs `loops` game loops; returns (units, [events per loop])."""
+    key = jax.random.PRNGKey(seed)
+    events = []
+    for _ in range(loops):
+        key, k = jax.random.split(key)
+        units, e = _LOOP(units, k)
+        events.append(jax.device_get(e))
+    return units, events
+
+
+def test_one_marine_shot_on_a_roach_is_reduced_by_its_armour():
+    # Gap 5.0 - 0.875 = 4.125: in the marine's range (5), out of the roach's (4). Both
+    # hold. One shot on loop 1: 6 - 1 armour = 5 damage; the roach cannot answer.
+    units = units_of([(0, M, SELF, (28.0, 28.0)), (1, R, ENEMY, (33.0, 28.0))],
+                     [(0, Order.HOLD, None, (28.0, 28.0)), (1, Order.HOLD, None, (33.0, 28.0))])
+    after, events = run(units, 10)
+    assert float(after.health[1]) == 140.0
+    assert float(after.health[0]) == 45.0
+    assert float(events[0].damage_dealt) == 5.0
+
+
+def test_a_roach_kills_a_marine_in_three_shots():
+    # 45 HP / 16 damage -> 29, 13, dead on the third shot. Shots come 32 loops plus a
+    # jitter of -1..+2 apart: the third on loop 1 + ceil(64 + J), J in [-2, 4]: 63..69.
+    # (The marine holds and shoots back; 5 damage a shot cannot kill the roach.)
+    units = units_of([(0, M, SELF, (28.0, 28.0)), (1, R, ENEMY, (31.0, 28.0))],
+                     [(0, Order.HOLD, None, (28.0, 28.0)),
+                      (1, Order.ATTACK_UNIT, 0, (28.0, 28.0))])
+    for seed in (1, 2, 3):
+        _, events = run(units, 70, seed)
+        died_on = [i + 1 for i, e in enumerate(events) if e.died[0]]
+        taken = [float(e.damage_taken) for e in events if e.damage_taken > 0]
+        assert taken == [16.0, 16.0, 16.0], taken
+        assert len(died_on) == 1 and 63 <= died_on[0] <= 69, died_on
+
+
+def test_baneling_burst_hits_a_clump_of_marines_but_not_its_own_side():
+    # A baneling 0.85 from marine 0 (gap 0.1 <= its range 0.25) attacking it bursts on
+    # loop 1 and dies: 20 + 15 (Light) = 35 to every marine whose edge is within 2.2 of
+    # it (centres within 2.575). Marines 1 and 2 are inside, marine 3 outside (2.7). The
+    # zergling beside it (its own side) takes nothing from it. The idle marines shoot
+    # their nearest enemy: marines 0 and 1 the baneling, 2 and 3 the zergling (35 - 12).
+    bane = (30.0, 28.0)
+    units = units_of([
+        (0, M, SELF, (30.85, 28.0)), (1, M, SELF, (30.0, 30.4)), (2, M, SELF, (28.0, 27.0)),
+        (3, M, SELF, (27.3, 28.0)), (4, B, ENEMY, bane), (5, Z, ENEMY, (29.25, 28.0)),
+    ], [(4, Order.ATTACK_UNIT, 0, (30.85, 28.0)), (5, Order.HOLD, None, (29.25, 28.0))])
+    after, events = run(units, 1)
+    np.testing.assert_array_equal(np.asarray(after.health[:4]), [10.0, 10.0, 10.0, 45.0])
+    assert not bool(after.alive[4]) and bool(events[0].died[4])
+    assert bool(after.alive[5]) and float(after.health[5]) == 23.0
+    assert float(events[0].damage_taken) == 3 * 35.0
+
+
+def test_a_baneling_killed_at_range_still_bursts():
+    # A 6-HP baneling holding 4 from marine 0 is shot dead on loop 1 and bursts where it
+    # stands: marine 1 (1.5 away) takes 35, marine 0 (4 away) nothing.
+    units = units_of([(0, M, SELF, (26.0, 28.0)), (1, M, SELF, (31.5, 28.0)),
+                      (2, B, ENEMY, (30.0, 28.0))],
+                     [(0, Order.HOLD, None, (26.0, 28.0)), (1, Order.MOVE, None, (31.5, 28.0)),
+                      (2, Order.HOLD, None, (30.0, 28.0))])
+    units = units.replace(health=units.health.at[2].set(6.0))
+    after, events = run(units, 1)
+    assert bool(events[0].died[2])
+    assert float(after.health[0]) == 45.0 and float(after.health[1]) == 10.0
+
+
+@functools.cache
+def _script(name):
+    game = get_map(name)
+    return game, jax.jit(game.init), jax.jit(game.on_loop)
+
+
+def _state(name, seed=0):
+    """A reset state of a wave map, built without compiling the map's step."""
+    return jax.jit(small_sim(name)._initial_state)(jax.random.PRNGKey(seed))
+
+
+def _events(n, died):
+    died = np.zeros(n, bool) if died is None else died
+    return LoopEvents(died=jnp.asarray(died), damage_dealt=jnp.float32(0),
+                      damage_taken=jnp.float32(0))
+
+
+def test_initial_lineup_and_sides():
+    game, init, _ = _script("DefeatRoaches")
+    for seed in range(4):
+        units, _, tag = init(jax.random.PRNGKey(seed))
+        pos = np.asarray(units.pos)
+        alive = np.asarray(units.alive)
+        assert alive[:9].all() and not alive[9:MARINE_SLOTS].any() and alive[MARINE_SLOTS:].all()
+        assert np.asarray(units.selected[:9]).all() and int(tag) == 13
+        marines, roaches = pos[:9], pos[MARINE_SLOTS:]
+        np.testing.assert_allclose(marines[:, 0], marines[0, 0])
+        np.testing.assert_allclose(marines[:, 1] - marines[0, 1], [0, 1, -1, 2, -2, 3, -3, 4, -4],
+                                   atol=1e-5)
+        np.testing.assert_allclose(roaches[:, 1] - roaches[0, 1], [0, 1, -1, -2], atol=1e-5)
+        left, right = (marines, roaches) if marines[0, 0] < 32 else (roaches, marines)
+        base_left = left[0] - [0, 0.5 if left is roaches else 0]
+        base_right = right[0] - [0, 0.5 if right is roaches else 0]
+        assert LEFT[0] <= base_left[0] <= LEFT[2] and LEFT[1] <= base_left[1] <= LEFT[3]
+        assert RIGHT[0] <= base_right[0] <= RIGHT[2] and RIGHT[1] <= base_right[1] <= RIGHT[3]
+    assert lineup_offset(np.arange(9)).tolist() == [0, 1, -1, 2, -2, 3, -3, 4, -4]
+
+
+@pytest.mark.parametrize("name,reward,fresh", [("DefeatRoaches", 10, 5),
+                                               ("DefeatZerglingsAndBanelings", 5, 4)])
+def test_wave_reset_keeps_survivors_health(name, reward, fresh):
+    game, _, on_loop = _script(name)
+    state = _state(name)
+    units = state.units
+    n = game.num_slots
+    # Marines 2 and 5 died earlier; marine 1 is hurt; this loop the last enemies and
+    # marine 7 die.
+    alive = np.asarray(units.alive).copy()
+    alive[[2, 5, 7]] = False
+    alive[MARINE_SLOTS:] = False
+    health = np.asarray(units.health).copy()
+    health[1], health[8] = 17.0, 3.0
+    died = np.zeros(n, bool)
+    died[MARINE_SLOTS:] = True
+    died[7] = True
+    old_tags = np.asarray(units.tag)
+    state = state.replace(units=units.replace(alive=jnp.asarray(alive),
+                                              health=jnp.asarray(health)),
+                          score=jnp.int32(100))
+    new = on_loop(state, _events(n, died))
+    enemies = len(game.ENEMIES)
+    assert int(new.score) == 100 + reward * enemies - 1
+    assert int(new.outcome) == Outcome.RUNNING
+    u = jax.device_get(new.units)
+    marines = np.flatnonzero(u.alive[:MARINE_SLOTS])
+    # Six survivors (0, 1, 3, 4, 6, 8) keep their health; the fresh ones fill the first
+    # free slots at full health.
+    assert marines.tolist() == sorted([0, 1, 3, 4, 6, 8] + [2, 5, 7, 9, 10, 11][:fresh])
+    assert u.health[[0, 1, 3, 4, 6, 8]].tolist() == [45.0, 17.0, 45.0, 45.0, 45.0, 3.0]
+    assert (u.health[marines] == 45.0).sum() == 4 + fresh
+    # Replaced: new tags, survivors first; all selected, idle, in one line.
+    tags = u.tag[marines]
+    assert tags.min() > old_tags.max() and len(set(tags.tolist())) == len(marines)
+    assert u.tag[[0, 1, 3, 4, 6, 8]].tolist() == sorted(u.tag[[0, 1, 3, 4, 6, 8]].tolist())
+    assert u.selected[marines].all() and not u.selected[MARINE_SLOTS:].any()
+    assert (u.orders[marines] == Order.NONE).all()
+    np.testing.assert_allclose(u.pos[marines, 0], u.pos[marines[0], 0])
+    # A new wave at full health on the other side.
+    assert u.alive[MARINE_SLOTS:].all()
+    np.testing.assert_array_equal(u.health[MARINE_SLOTS:], [
+        {3: 145.0, 2: 35.0, 4: 30.0}[t] for t in u.type[MARINE_SLOTS:]])
+    assert (u.pos[MARINE_SLOTS, 0] < 32) != (u.pos[marines[0], 0] < 32)
+    assert int(new.next_tag) == int(state.next_tag) + len(marines) + enemies
+
+
+def test_wave_reset_adds_only_what_the_slots_hold_and_defeat_comes_first():
+    game, _, on_loop = _script("DefeatRoaches")
+    state = _state("DefeatRoaches", seed=1)
+    n = game.num_slots
+    alive = np.zeros(n, bool)
+    alive[:MARINE_SLOTS - 2] = True
+    died = np.zeros(n, bool)
+    died[MARINE_SLOTS:] = True
+    full = state.replace(units=state.units.replace(alive=jnp.asarray(alive)))
+    new = on_loop(full, _events(n, died))
+    assert int(np.asarray(new.units.alive[:MARINE_SLOTS]).sum()) == MARINE_SLOTS
+    # The last marine and the last roach die on the same loop: defeat, no new wave.
+    dead = state.replace(units=state.units.replace(alive=jnp.zeros(n, bool)))
+    died[:9] = True
+    new = on_loop(dead, _events(n, died))
+    assert int(new.outcome) == Outcome.DEFEAT
+    assert int(new.score) == 40 - 9
+    assert not np.asarray(new.units.alive).any()
