@@ -76,12 +76,15 @@ def _select_targets(units: Units, data, gap, enemy):
     scan = jnp.where(order == Order.HOLD, data.range, jnp.maximum(data.acquire, data.range))
     scans = has_weapon & ((order == Order.NONE) | (order == Order.ATTACK_MOVE)
                           | (order == Order.PATROL) | (order == Order.HOLD))
-    # Keep the current target while it stays an enemy within sight (weapon range if holding).
+    # Keep the current target while it stays an enemy within sight (weapon range if
+    # holding), unless it is out of weapon range and another enemy is in range.
     keep_range = jnp.where(order == Order.HOLD, data.range, data.sight)
     current = units.target
     safe = jnp.clip(current, 0, n - 1)
     rows = jnp.arange(n)
-    keep = scans & (current >= 0) & enemy[rows, safe] & (gap[rows, safe] <= keep_range)
+    other_in_range = (enemy & (gap <= data.range[:, None])).any(axis=1)
+    keep = (scans & (current >= 0) & enemy[rows, safe] & (gap[rows, safe] <= keep_range)
+            & ~(other_in_range & (gap[rows, safe] > data.range)))
     candidate = enemy & (gap <= scan[:, None])
     nearest = jnp.argmin(jnp.where(candidate, gap, jnp.inf), axis=1)
     acquired = jnp.where(keep, current, jnp.where(candidate.any(axis=1), nearest, NO_TARGET))
@@ -179,11 +182,17 @@ def game_loop(units: Units, key, playable, bursts: bool = False) -> tuple[Units,
     cooldown = jnp.where(fires, units.cooldown + data.cooldown + jitter - 1.0,
                          jnp.where(ready, 0.0, units.cooldown - 1.0))
 
-    # A unit hit while idle turns on (one of) its attackers.
+    # A unit hit while idle turns on (one of) its attackers, and so does an idle unit
+    # whose ally within its acquisition range was hit.
     attacker = jnp.full(n, -1, jnp.int32).at[safe_target].max(jnp.where(fires, rows, -1))
+    ally = ((units.owner[:, None] == units.owner[None, :]) & alive[:, None] & alive[None, :]
+            & (rows[:, None] != rows[None, :]))
+    calls = ally & (gap <= data.acquire[:, None]) & (attacker[None, :] >= 0)
+    called = jnp.max(jnp.where(calls, attacker[None, :], -1), axis=1)
+    answer = jnp.where(attacker >= 0, attacker, called)
     idle = units.orders[:, 0] == Order.NONE
-    retaliate = idle & (attacker >= 0) & (units.target < 0) & (data.damage > 0)
-    new_target = jnp.where(retaliate, attacker, target)
+    retaliate = idle & (answer >= 0) & (units.target < 0) & (data.damage > 0)
+    new_target = jnp.where(retaliate, answer, target)
 
     health = units.health - damage
     died = alive & (((data.max_health > 0) & (health <= 0)) | exploded)

@@ -61,11 +61,18 @@ class Agent:
     def initial_state(self, key: jax.Array, learning_rate: Any = None) -> TrainState:
         """A fresh run: new parameters, optimiser state and environments."""
         learner_key, actor_key = jax.random.split(key)
-        unroll = make_unroll(self.sim, self.core, self.config.unroll_length)
-        actor = unroll.init(actor_key, self.config.num_envs)
+        actor = self._reset_actors(actor_key)
         rate = self.config.learning_rate if learning_rate is None else learning_rate
         learner = self.learner.init(learner_key, actor.timestep.observation, rate)
         return TrainState(learner, actor)
+
+    @functools.cached_property
+    def _reset_actors(self):
+        """key -> the actors' first state, compiled (run op by op, the resets take several
+        times longer than compiling them). The network is initialised op by op: compiled,
+        its initial weights would differ in the last bits."""
+        unroll = make_unroll(self.sim, self.core, self.config.unroll_length)
+        return jax.jit(lambda key: unroll.init(key, self.config.num_envs))
 
     def chunk(self, num_runs: int | None = None):
         """The compiled chunk (`make_train_chunk`), built once per agent and run count."""

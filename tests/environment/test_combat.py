@@ -118,6 +118,22 @@ def test_a_baneling_killed_at_range_still_bursts():
     assert float(after.health[0]) == 45.0 and float(after.health[1]) == 10.0
 
 
+def test_idle_units_answer_an_attack_on_an_ally_within_their_acquisition_range():
+    # The marine (holding) shoots roach 1, 4.5 away (gap 3.625). Roach 2, 4 beyond it
+    # (gap 3 to roach 1, within its acquisition range 5; 7.625 to the marine, outside
+    # it but within its sight 9) turns on the marine and closes in; roach 3, 6.1 beyond
+    # roach 1 (gap 5.1), stays idle.
+    units = units_of([(0, M, SELF, (26.0, 28.0)), (1, R, ENEMY, (30.5, 28.0)),
+                      (2, R, ENEMY, (34.5, 28.0)), (3, R, ENEMY, (36.6, 28.0))],
+                     [(0, Order.HOLD, None, (26.0, 28.0))])
+    after, events = run(units, 1)
+    assert float(after.health[1]) == 140.0
+    assert np.asarray(after.target[1:4]).tolist() == [0, 0, -1]
+    after, _ = run(after, 8)
+    assert float(after.pos[2, 0]) < 34.0 and float(after.pos[3, 0]) == pytest.approx(36.6)
+    assert int(after.target[3]) == -1
+
+
 @functools.cache
 def _script(name):
     game = get_map(name)

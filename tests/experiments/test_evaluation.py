@@ -8,7 +8,7 @@ import sys
 import numpy as np
 import pytest
 
-from sc2jax.environment import ObservationFormat, Simulator
+from sc2jax.environment import FUNCTIONS, FeatureUnit, ObservationFormat, Simulator
 from sc2jax.environment.agents import required_format, scripted_policy
 from sc2jax.environment.environments import simulator
 from sc2jax.experiments import evaluation
@@ -36,8 +36,53 @@ def test_scripted_agent_needs_what_it_reads():
         scripted_policy("FindAndDefeatZerglings",
                         ObservationFormat(32, 32, minimap_features=("player_relative",
                                                                      "pathable")))
+    for name in ("DefeatRoaches", "DefeatZerglingsAndBanelings"):
+        with pytest.raises(ValueError, match="use_feature_units"):
+            scripted_policy(name, ObservationFormat(32, 32))
     with pytest.raises(ValueError, match="no scripted agent for map 'Nowhere'"):
         scripted_policy("Nowhere", FMT)
+
+
+def _combat_obs(units, game_loop, res=32):
+    """A hand-made observation: `units` rows are (unit id, alliance, x, y, health,
+    selected) in screen pixels."""
+    rows = np.zeros((8, len(FeatureUnit)), np.int32)
+    for i, (kind, alliance, x, y, health, selected) in enumerate(units):
+        rows[i, [FeatureUnit.unit_type, FeatureUnit.alliance, FeatureUnit.x, FeatureUnit.y,
+                 FeatureUnit.health, FeatureUnit.is_selected]] = (
+            kind, alliance, x, y, health, selected)
+    return {"feature_units": rows, "feature_screen": np.zeros((1, res, res), np.int32),
+            "game_loop": np.array([game_loop], np.int32)}
+
+
+def test_combat_scripts_focus_fire_and_stutter_step():
+    marine, roach, zergling, baneling = 48, 110, 105, 9
+    key = None
+    # DefeatRoaches: the weakest roach, whatever its distance; select the army first
+    # when a marine is not selected.
+    obs = _combat_obs([(marine, 1, 5, 16, 45, 1), (marine, 1, 5, 17, 45, 1),
+                       (roach, 4, 20, 16, 145, 0), (roach, 4, 28, 16, 40, 0)], 8)
+    act = scripted_policy("DefeatRoaches", FMT)(key, obs)
+    assert int(act.function) == FUNCTIONS.Attack_screen.id
+    assert np.asarray(act.screen).tolist() == [28, 16]
+    obs["feature_units"][1, FeatureUnit.is_selected] = 0
+    act = scripted_policy("DefeatRoaches", FMT)(key, obs)
+    assert int(act.function) == FUNCTIONS.select_army.id
+    # DefeatZerglingsAndBanelings: a baneling 3 world units (4 pixels) from the marines:
+    # shoot it on even steps, step straight back (away from it) on odd ones.
+    policy = scripted_policy("DefeatZerglingsAndBanelings", FMT)
+    units = [(marine, 1, 10, 16, 45, 1), (zergling, 4, 12, 20, 35, 0),
+             (baneling, 4, 14, 16, 30, 0)]
+    act = policy(key, _combat_obs(units, 16))
+    assert int(act.function) == FUNCTIONS.Attack_screen.id
+    assert np.asarray(act.screen).tolist() == [14, 16]
+    act = policy(key, _combat_obs(units, 24))
+    assert int(act.function) == FUNCTIONS.Move_screen.id
+    x, y = np.asarray(act.screen).tolist()
+    assert x < 10 and y == 16
+    # Far from every baneling, it keeps shooting.
+    far = [(marine, 1, 2, 16, 45, 1)] + units[1:]
+    assert int(policy(key, _combat_obs(far, 24)).function) == FUNCTIONS.Attack_screen.id
 
 
 def test_scripted_move_to_beacon_plays_like_a_human():

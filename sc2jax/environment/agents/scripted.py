@@ -32,6 +32,12 @@ _SELECT_POINT = FUNCTIONS.select_point.id
 _SELECT_ARMY = FUNCTIONS.select_army.id
 _MOVE_SCREEN = FUNCTIONS.Move_screen.id
 _ATTACK_MINIMAP = FUNCTIONS.Attack_minimap.id
+_ATTACK_SCREEN = FUNCTIONS.Attack_screen.id
+_ROACH, _BANELING = 110, 9  # StarCraft II unit ids.
+# DefeatZerglingsAndBanelings: marines step back while a baneling is this close (world
+# units, centre to centre), and go this far (world units) per retreat order.
+_BANELING_DANGER = 4.5
+_RETREAT = 4.0
 
 
 def call(function, **arguments) -> DenseAction:
@@ -136,9 +142,62 @@ def find_and_defeat_zerglings(key, obs, minimap_layers: dict[str, int]) -> Dense
     return pick(army_selected, attack, call(_SELECT_ARMY))
 
 
+def _world_scale(obs) -> float:
+    """World units per screen pixel (the screen is 24 world units wide)."""
+    return 24.0 / obs["feature_screen"].shape[-1]
+
+
+def _army_ready(obs):
+    """(marine mask, marine xy, marine centre float32[2], every marine selected)."""
+    marine, marine_xy, selected = _units(obs, PlayerRelative.SELF)
+    centre = jnp.sum(marine_xy * marine[:, None], 0) / jnp.maximum(jnp.sum(marine), 1)
+    return marine, marine_xy, centre, jnp.sum(selected) == jnp.sum(marine)
+
+
+def defeat_roaches(key, obs) -> DenseAction:
+    """Focus fire: every marine attacks the weakest roach (the nearest of equals), and
+    the order is renewed each step, as the map's own demo script does; the army is
+    selected first whenever some marine is not."""
+    del key
+    _, _, centre, ready = _army_ready(obs)
+    enemy, enemy_xy, _ = _units(obs, PlayerRelative.ENEMY)
+    health = obs["feature_units"][:, FeatureUnit.health].astype(jnp.float32)
+    d2 = jnp.sum((enemy_xy.astype(jnp.float32) - centre) ** 2, -1)
+    target = jnp.argmin(jnp.where(enemy, health * 1e4 + d2, jnp.inf))
+    attack = pick(enemy.any(), call(_ATTACK_SCREEN, screen=enemy_xy[target]), call(_NO_OP))
+    return pick(ready, attack, call(_SELECT_ARMY))
+
+
+def defeat_zerglings_and_banelings(key, obs) -> DenseAction:
+    """Kites the banelings: while one is within `_BANELING_DANGER` of the marines'
+    centre the army steps back, away from it; otherwise it shoots the nearest baneling
+    (from range, so that it bursts away from the marines), then the nearest zergling."""
+    del key
+    marine, marine_xy, centre, ready = _army_ready(obs)
+    enemy, enemy_xy, _ = _units(obs, PlayerRelative.ENEMY)
+    kind = obs["feature_units"][:, FeatureUnit.unit_type]
+    baneling = enemy & (kind == _BANELING)
+    scale = _world_scale(obs)
+    goals = jnp.where(baneling.any(), baneling, enemy)
+    target, _ = _nearest(centre, enemy_xy, goals)
+    nearest_bane, d2 = _nearest(centre, enemy_xy, baneling)
+    away = centre - enemy_xy[nearest_bane].astype(jnp.float32)
+    away = away / jnp.maximum(jnp.sqrt(jnp.sum(away * away)), 1e-3)
+    res = obs["feature_screen"].shape[-1]
+    retreat_xy = jnp.clip(jnp.round(centre + away * _RETREAT / scale), 0, res - 1)
+    # Stutter-step: while a baneling is close, shoot on every other step, step back on
+    # the others.
+    back_step = (obs["game_loop"][0] // 8) % 2 == 1
+    danger = baneling.any() & (d2 * scale * scale < _BANELING_DANGER ** 2) & back_step
+    attack = pick(enemy.any(), call(_ATTACK_SCREEN, screen=enemy_xy[target]), call(_NO_OP))
+    act = pick(danger, call(_MOVE_SCREEN, screen=retreat_xy.astype(jnp.int32)), attack)
+    return pick(ready | ~marine.any(), act, call(_SELECT_ARMY))
+
+
 def required_format(map_name: str) -> dict:
     """The `ObservationFormat` settings a map's scripted agent needs (for `make`)."""
-    if map_name in ("MoveToBeacon", "CollectMineralShards"):
+    if map_name in ("MoveToBeacon", "CollectMineralShards", "DefeatRoaches",
+                    "DefeatZerglingsAndBanelings"):
         return {"use_feature_units": True}
     return {}
 
@@ -166,8 +225,13 @@ def scripted_policy(map_name: str, fmt: ObservationFormat) -> Policy:
                              f"the format has {names}")
         index = {n: names.index(n) for n in needed}
         return lambda key, obs: find_and_defeat_zerglings(key, obs, index)
+    if map_name == "DefeatRoaches":
+        return defeat_roaches
+    if map_name == "DefeatZerglingsAndBanelings":
+        return defeat_zerglings_and_banelings
     raise ValueError(f"no scripted agent for map {map_name!r}; there are agents for "
                      f"{list(SCRIPTED_MAPS)}")
 
 
-SCRIPTED_MAPS = ("MoveToBeacon", "CollectMineralShards", "FindAndDefeatZerglings")
+SCRIPTED_MAPS = ("MoveToBeacon", "CollectMineralShards", "FindAndDefeatZerglings",
+                 "DefeatRoaches", "DefeatZerglingsAndBanelings")
