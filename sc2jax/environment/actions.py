@@ -44,6 +44,8 @@ class Kind(enum.IntEnum):
     SMART = 11
     HOLD = 12
     STOP = 13
+    GATHER = 14
+    RETURN = 15
 
 
 _BY_NAME = {
@@ -55,6 +57,7 @@ _BY_NAME = {
     "Patrol_screen": Kind.PATROL, "Patrol_minimap": Kind.PATROL,
     "Smart_screen": Kind.SMART, "Smart_minimap": Kind.SMART,
     "HoldPosition_quick": Kind.HOLD, "Stop_quick": Kind.STOP,
+    "Harvest_Gather_screen": Kind.GATHER, "Harvest_Return_quick": Kind.RETURN,
 }
 
 KIND_TABLE = np.zeros(NUM_FUNCTIONS, np.int32)
@@ -90,6 +93,10 @@ class _Context:
             jnp.asarray(IS_MINIMAP)[action.function], False,
             (self.picked >= 0) & (units.owner[jnp.maximum(self.picked, 0)] == Owner.ENEMY))
         self.minimap_point = minimap_point
+        # A mineral field (or geyser) under a screen click, for gathering.
+        self.resource_under = jnp.where(
+            jnp.asarray(IS_MINIMAP)[action.function], False,
+            (self.picked >= 0) & (units.contents[jnp.maximum(self.picked, 0)] > 0))
 
 
 def apply_action(state: EnvState, action: DenseAction, renderer: Renderer,
@@ -110,6 +117,18 @@ def apply_action(state: EnvState, action: DenseAction, renderer: Renderer,
         new_units, ok = result
         return new_units, state.camera, ok
 
+    def gather():
+        return commands.issue(units, Order.GATHER, a.queued, ctx.point, ctx.picked)
+
+    def smart():
+        # On a mineral field, workers gather and the others move to it.
+        moved, moved_ok = attack_or(Order.MOVE)
+        gathered, gathered_ok = commands.issue(moved, Order.GATHER, a.queued, ctx.point,
+                                               ctx.picked)
+        take = ctx.resource_under
+        return (jax.tree_util.tree_map(lambda x, y: jnp.where(take, x, y), gathered, moved),
+                moved_ok | (take & gathered_ok))
+
     branches = [
         lambda: (units, state.camera, jnp.bool_(False)),  # UNSUPPORTED
         lambda: (units, state.camera, jnp.bool_(True)),  # NOOP
@@ -124,9 +143,12 @@ def apply_action(state: EnvState, action: DenseAction, renderer: Renderer,
         lambda: keep_camera(attack_or(Order.ATTACK_MOVE)),
         lambda: keep_camera(commands.issue(units, Order.MOVE, a.queued, ctx.point)),
         lambda: keep_camera(commands.issue(units, Order.PATROL, a.queued, ctx.point)),
-        lambda: keep_camera(attack_or(Order.MOVE)),
+        lambda: keep_camera(smart()),
         lambda: keep_camera(commands.issue(units, Order.HOLD, a.queued, ctx.point)),
         lambda: keep_camera(commands.stop(units)),
+        lambda: keep_camera(jax.lax.cond(ctx.resource_under, gather,
+                                         lambda: (units, jnp.bool_(False)))),
+        lambda: keep_camera(commands.issue(units, Order.RETURN, a.queued, ctx.point)),
     ]
     kind = jnp.where(available, jnp.asarray(KIND_TABLE)[function], Kind.UNSUPPORTED)
     new_units, camera, ok = jax.lax.switch(kind, [lambda _, b=b: b() for b in branches], None)

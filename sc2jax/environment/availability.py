@@ -25,7 +25,7 @@ COMMAND_CARDS: dict[UnitType, tuple[str, ...]] = {
     UnitType.ZERGLING: COMBAT_CARD,
     UnitType.ROACH: COMBAT_CARD,
     UnitType.BANELING: COMBAT_CARD,
-    UnitType.SCV: COMBAT_CARD,
+    UnitType.SCV: COMBAT_CARD + ("Harvest_Gather_screen",),
 }
 """Each unit type's command card, as general function names."""
 
@@ -65,4 +65,7 @@ def available_actions(units: Units, idle_workers=0, card_table=CARD_TABLE):
     mask = mask.at[FUNCTIONS.select_unit.id].set(multi)
     mask = mask.at[FUNCTIONS.select_army.id].set(army_count(units) > 0)
     mask = mask.at[FUNCTIONS.select_idle_worker.id].set(idle_workers > 0)
+    # Return Cargo is on the card of a worker that carries something.
+    carrying = own_selected & (units.type == UnitType.SCV) & (units.cargo > 0)
+    mask = mask.at[FUNCTIONS.Harvest_Return_quick.id].set(carrying.any())
     return mask

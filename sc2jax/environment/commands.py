@@ -9,7 +9,7 @@ from __future__ import annotations
 import jax.numpy as jnp
 
 from sc2jax.environment.state import NO_TARGET, ORDER_QUEUE, Order, Owner, Units
-from sc2jax.environment.units import UNIT_DATA
+from sc2jax.environment.units import UNIT_DATA, UnitType
 
 
 def commandable(units: Units):
@@ -18,14 +18,16 @@ def commandable(units: Units):
 
 
 def obeys(units: Units, order):
-    """bool[N]: units able to carry out an order type (movers move, armed units attack)."""
+    """bool[N]: units able to carry out an order type (movers move, armed units attack,
+    workers harvest)."""
     speed = jnp.asarray(UNIT_DATA.speed)[units.type]
     damage = jnp.asarray(UNIT_DATA.damage)[units.type]
     moves = speed > 0
     armed = damage > 0
     needs_weapon = (order == Order.ATTACK_UNIT) | (order == Order.ATTACK_MOVE)
-    return jnp.where(needs_weapon, moves | armed, jnp.where(order == Order.HOLD, moves | armed,
-                                                             moves))
+    harvests = (order == Order.GATHER) | (order == Order.RETURN)
+    return jnp.where(harvests, units.type == UnitType.SCV, jnp.where(
+        needs_weapon | (order == Order.HOLD), moves | armed, moves))
 
 
 def issue(units: Units, order, queued, point, target_unit=NO_TARGET):
@@ -33,10 +35,12 @@ def issue(units: Units, order, queued, point, target_unit=NO_TARGET):
 
     Args:
       units: the units.
-      order: int32 `Order` (MOVE, ATTACK_MOVE, ATTACK_UNIT, PATROL, HOLD).
+      order: int32 `Order` (MOVE, ATTACK_MOVE, ATTACK_UNIT, PATROL, HOLD, GATHER,
+        RETURN).
       queued: int32 0 (now) or 1 (queued).
       point: float32[2] world target point.
-      target_unit: int32 target slot for ATTACK_UNIT, else -1.
+      target_unit: int32 target slot for ATTACK_UNIT and GATHER (-1 for RETURN: the
+        nearest Command Center), else -1.
 
     Returns:
       (units, ok): ok is False if no selected unit could take the order.

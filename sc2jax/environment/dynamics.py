@@ -18,6 +18,7 @@ from typing import NamedTuple
 import jax
 import jax.numpy as jnp
 
+from sc2jax.environment import harvest
 from sc2jax.environment.state import NO_TARGET, Order, Owner, Units
 from sc2jax.environment.units import UNIT_DATA, Attribute
 
@@ -35,11 +36,13 @@ class LoopEvents(NamedTuple):
       died: bool[N] units that died this loop (they are no longer alive).
       damage_dealt: float32 scalar, damage dealt by the player's units.
       damage_taken: float32 scalar, damage taken by the player's units.
+      minerals: float32 scalar, minerals the player's workers deposited.
     """
 
     died: jax.Array
     damage_dealt: jax.Array
     damage_taken: jax.Array
+    minerals: jax.Array
 
 
 def _data(types):
@@ -93,7 +96,8 @@ def _select_targets(units: Units, data, gap, enemy):
     return jnp.where(order == Order.ATTACK_UNIT, ordered, auto)
 
 
-def game_loop(units: Units, key, playable, bursts: bool = False) -> tuple[Units, LoopEvents]:
+def game_loop(units: Units, key, playable, bursts: bool = False,
+              workers: bool = False) -> tuple[Units, LoopEvents]:
     """Advances all units by one game loop.
 
     Args:
@@ -102,6 +106,7 @@ def game_loop(units: Units, key, playable, bursts: bool = False) -> tuple[Units,
       playable: (x0, y0, x1, y1), the area units are kept inside.
       bursts: (static) whether the map has units with a suicide splash attack (`burst`
         in the unit data); maps without them skip its cost.
+      workers: (static) whether the map has workers that harvest (`harvest`).
 
     Returns:
       The new units and the loop's events.
@@ -139,11 +144,22 @@ def game_loop(units: Units, key, playable, bursts: bool = False) -> tuple[Units,
     to_goal = goal - pos
     goal_dist = jnp.sqrt(jnp.sum(to_goal * to_goal, axis=-1) + 1e-12)
     room = jnp.where(chasing, jnp.maximum(target_gap - data.range, 0.0) + 1e-3, goal_dist)
+    # Harvesting workers walk to their field or Command Center until they touch it.
+    gathering = jnp.zeros(n, bool)
+    if workers:
+        units = harvest.resolve_returns(units, dist)
+        gathering = harvest.harvesting(units)
+        to_unit, unit_goal, unit_room = harvest.approach(units, gap)
+        goal = jnp.where(to_unit[:, None], pos[unit_goal], goal)
+        to_goal = goal - pos
+        goal_dist = jnp.sqrt(jnp.sum(to_goal * to_goal, axis=-1) + 1e-12)
+        room = jnp.where(to_unit, unit_room, room)
+        moving = moving | (alive & to_unit & (data.speed > 0))
     step = jnp.where(moving, jnp.minimum(data.speed, room), 0.0)
     direction = to_goal / goal_dist[:, None]
     new_pos = pos + direction * step[:, None]
 
-    new_pos = _resolve_collisions(new_pos, alive, data)
+    new_pos = _resolve_collisions(new_pos, alive & ~gathering, data)
     x0, y0, x1, y1 = playable
     new_pos = jnp.clip(new_pos, jnp.array([x0, y0]), jnp.array([x1, y1]))
     new_pos = jnp.where(alive[:, None], new_pos, pos)
@@ -199,10 +215,20 @@ def game_loop(units: Units, key, playable, bursts: bool = False) -> tuple[Units,
     alive = alive & ~died
 
     own = units.owner == Owner.SELF
+    delivered = jnp.zeros(n, jnp.float32)
+    if workers:
+        gap_after = (jnp.sqrt(jnp.sum((new_pos - new_pos[unit_goal]) ** 2, axis=-1))
+                     - data.radius - data.radius[unit_goal])
+        units = units.replace(pos=new_pos, alive=alive)
+        units, delivered, ended = harvest.harvest(units, gathering & (gap_after <= harvest.REACH),
+                                                 dist)
+        units = pop_order(units, ended)
+        alive = units.alive
     events = LoopEvents(
         died=died,
         damage_dealt=jnp.sum(jnp.where(own, hits, 0.0)),
-        damage_taken=jnp.sum(jnp.where(own, damage, 0.0)))
+        damage_taken=jnp.sum(jnp.where(own, damage, 0.0)),
+        minerals=jnp.sum(jnp.where(own, delivered, 0.0)))
 
     units = units.replace(
         pos=new_pos, facing=facing, cooldown=jnp.where(alive, cooldown, 0.0),

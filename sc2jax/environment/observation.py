@@ -101,6 +101,8 @@ def feature_units(units: Units, include, pixel_pos, pixel_radius, on_screen, len
         "order_length": order_length.astype(jnp.int32),
         "tag": units.tag if with_tags else zeros,
         "is_on_screen": on_screen.astype(jnp.int32),
+        "mineral_contents": jnp.where(t == UnitType.MINERAL_FIELD, units.contents, 0),
+        "vespene_contents": jnp.where(t == UnitType.VESPENE_GEYSER, units.contents, 0),
     }
     rows = jnp.stack([columns.get(f.name, zeros).astype(jnp.int32)
                       for f in tables.FeatureUnit], axis=-1)

@@ -231,15 +231,17 @@ class Simulator:
             running = state.outcome == Outcome.RUNNING
             key, loop_key = jax.random.split(state.key)
             units, events = game_loop(state.units, loop_key, game.geometry.playable,
-                                      bursts=game.has_bursts)
+                                      bursts=game.has_bursts, workers=game.has_workers)
             enemy_died = events.died & (state.units.owner == Owner.ENEMY)
             killed_value = jnp.sum(jnp.where(enemy_died, value[state.units.type], 0))
             vital = state.score_by_vital.at[0, 0].add(events.damage_dealt).at[1, 0].add(
                 events.damage_taken)
+            mined = events.minerals.astype(jnp.int32)
             cumulative = state.score_cumulative.at[ScoreCumulative.killed_value_units].add(
-                killed_value)
+                killed_value).at[ScoreCumulative.collected_minerals].add(mined)
             new = state.replace(units=units, key=key, game_loop=state.game_loop + 1,
-                                score_by_vital=vital, score_cumulative=cumulative)
+                                score_by_vital=vital, score_cumulative=cumulative,
+                                minerals=state.minerals + mined)
             new = game.on_loop(new, events)
             timer = (new.game_loop >= game.time_limit_loops) & (new.outcome == Outcome.RUNNING)
             new = new.replace(outcome=jnp.where(timer, int(Outcome.VICTORY), new.outcome))

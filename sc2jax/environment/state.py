@@ -28,6 +28,8 @@ class Order(enum.IntEnum):
     ATTACK_UNIT = 3
     PATROL = 4
     HOLD = 5
+    GATHER = 6
+    RETURN = 7
 
 
 class Owner(enum.IntEnum):
@@ -59,6 +61,10 @@ class Units:
       target: int32[N] the unit being engaged (acquired or ordered), or -1.
       selected: bool[N].
       groups: int32[N] control-group membership bitmask (bit g for group g).
+      cargo: float32[N] resources a worker carries.
+      work: float32[N] loops of harvesting left (a worker mining), else 0.
+      contents: float32[N] resources left in a mineral field or geyser.
+      home: int32[N] the resource a worker harvests (it returns there), or -1.
     """
 
     alive: jax.Array
@@ -78,6 +84,10 @@ class Units:
     target: jax.Array
     selected: jax.Array
     groups: jax.Array
+    cargo: jax.Array
+    work: jax.Array
+    contents: jax.Array
+    home: jax.Array
 
     @property
     def num_slots(self) -> int:
@@ -94,7 +104,8 @@ class Units:
             facing=f(n), health=f(n), shields=f(n), energy=f(n), cooldown=f(n),
             orders=i(n, q), order_pos=f(n, q, 2), order_unit=jnp.full((n, q), NO_TARGET, jnp.int32),
             patrol_origin=f(n, 2), target=jnp.full((n,), NO_TARGET, jnp.int32),
-            selected=jnp.zeros(n, bool), groups=i(n))
+            selected=jnp.zeros(n, bool), groups=i(n), cargo=f(n), work=f(n), contents=f(n),
+            home=jnp.full((n,), NO_TARGET, jnp.int32))
 
 
 @struct.dataclass

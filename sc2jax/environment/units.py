@@ -64,6 +64,7 @@ class UnitData(NamedTuple):
       mineral_cost, vespene_cost: cost.
       burst: the radius of a suicide splash attack (0: none), world units. Such a unit
         (the Baneling's Volatile Burst) dies when it attacks, and also bursts when killed.
+      contents: the resources a mineral field or geyser starts with (0: not a resource).
     """
 
     sc2_id: np.ndarray
@@ -85,6 +86,7 @@ class UnitData(NamedTuple):
     mineral_cost: np.ndarray
     vespene_cost: np.ndarray
     burst: np.ndarray
+    contents: np.ndarray
 
 
 _L, _A, _B, _M, _S = (Attribute.LIGHT, Attribute.ARMORED, Attribute.BIOLOGICAL,
@@ -127,6 +129,9 @@ _TABLE = {
 # the table's (20, +15 against Light: 35 to a Marine in every game version).
 _BURST = {UnitType.BANELING: 2.2}
 
+# Resources: a MineralField holds 1800 minerals (Legacy of the Void), a geyser 2250 gas.
+_CONTENTS = {UnitType.MINERAL_FIELD: 1800, UnitType.VESPENE_GEYSER: 2250}
+
 
 def _build() -> UnitData:
     rows = [_TABLE[t] for t in UnitType]
@@ -144,7 +149,8 @@ def _build() -> UnitData:
         range=f32(rng), sight=f32(sight), acquire=f32(acquire),
         attributes=i32([int(a) for a in attributes]), is_army=np.asarray(is_army, bool),
         food=f32(food), mineral_cost=i32(minerals), vespene_cost=i32(vespene),
-        burst=f32([_BURST.get(t, 0.0) for t in UnitType]))
+        burst=f32([_BURST.get(t, 0.0) for t in UnitType]),
+        contents=f32([_CONTENTS.get(t, 0) for t in UnitType]))
 
 
 UNIT_DATA = _build()

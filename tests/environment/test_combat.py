@@ -148,7 +148,7 @@ def _state(name, seed=0):
 def _events(n, died):
     died = np.zeros(n, bool) if died is None else died
     return LoopEvents(died=jnp.asarray(died), damage_dealt=jnp.float32(0),
-                      damage_taken=jnp.float32(0))
+                      damage_taken=jnp.float32(0), minerals=jnp.float32(0))
 
 
 def test_initial_lineup_and_sides():

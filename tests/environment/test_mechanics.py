@@ -721,7 +721,7 @@ def test_hold_position_fires_but_never_chases():
 
 def no_events(num_slots):
     return LoopEvents(died=jnp.zeros(num_slots, bool), damage_dealt=jnp.float32(0),
-                      damage_taken=jnp.float32(0))
+                      damage_taken=jnp.float32(0), minerals=jnp.float32(0))
 
 
 def script_state(map_name, units_spec):

@@ -102,6 +102,11 @@ class MiniGame:
         return any(UNIT_DATA.burst[t] > 0 for t in self.unit_types)
 
     @property
+    def has_workers(self) -> bool:
+        """Whether the map has workers (SCVs), which harvest."""
+        return UnitType.SCV in self.unit_types
+
+    @property
     def max_radius(self) -> float:
         """The largest radius of the map's unit types, world units."""
         return float(max(UNIT_DATA.radius[t] for t in self.unit_types))
@@ -171,7 +176,9 @@ def place(units: Units, slots, unit_type, owner, positions, next_tag, selected=F
         order_unit=put(units.order_unit, NO_TARGET),
         target=put(units.target, NO_TARGET),
         selected=put(units.selected, jnp.broadcast_to(jnp.asarray(selected), (k,))),
-        groups=put(units.groups, 0))
+        groups=put(units.groups, 0), cargo=put(units.cargo, 0.0), work=put(units.work, 0.0),
+        contents=put(units.contents, jnp.asarray(data.contents)[types]),
+        home=put(units.home, NO_TARGET))
     return units, next_tag + k
 
 

@@ -1,0 +1,141 @@
+"""Workers harvesting minerals: the gather, mine, return and deposit cycle.
+
+The game's cycle (reference/pysc2_facts.md §7), run once per game loop by
+`dynamics.game_loop` for maps with workers:
+
+- a worker with a GATHER order walks to its mineral field (the order's target unit);
+- touching it (edge to edge within `REACH`), and if no other worker is mining it, it
+  mines for 2.786 game seconds (`MINING_LOOPS`), then takes 5 minerals from the field
+  (fewer if fewer are left) and turns to RETURN them to the nearest own Command Center;
+  a worker that finds its field taken waits beside it;
+- touching the Command Center deposits the cargo, and the worker goes back to GATHER
+  from the same field;
+- a worker told to gather while it carries minerals returns them first;
+- a field mined out disappears, and the workers on it go idle.
+
+Moving and mining workers pass through other units, as harvesting workers do in the
+game; they keep their orders' targets in `Units.order_unit`, and the field a worker
+returns to in `Units.home`.
+"""
+
+from __future__ import annotations
+
+import jax.numpy as jnp
+
+from sc2jax.environment.state import NO_TARGET, Order, Units
+from sc2jax.environment.units import LOOPS_PER_SECOND, UnitType
+
+REACH = 0.1
+"""Edge-to-edge distance at which a worker touches a field or a Command Center."""
+MINING_LOOPS = 2.786 * LOOPS_PER_SECOND
+"""Loops a worker mines a mineral field for (2.786 game seconds: 45 whole loops)."""
+MINERALS_PER_TRIP = 5.0
+
+
+def harvesting(units: Units):
+    """bool[N]: living units with a GATHER or RETURN order."""
+    order = units.orders[:, 0]
+    return units.alive & ((order == Order.GATHER) | (order == Order.RETURN))
+
+
+def nearest_depot(units: Units, dist):
+    """int32[N]: each unit's nearest own Command Center (by centre distance), or -1.
+
+    Args:
+      units: the units.
+      dist: float32[N, N] centre distances.
+    """
+    depot = units.alive & (units.type == UnitType.COMMAND_CENTER)
+    mine = depot[None, :] & (units.owner[:, None] == units.owner[None, :])
+    nearest = jnp.argmin(jnp.where(mine, dist, jnp.inf), axis=1).astype(jnp.int32)
+    return jnp.where(mine.any(axis=1), nearest, NO_TARGET)
+
+
+def approach(units: Units, gap):
+    """Where harvesting workers walk this loop.
+
+    Args:
+      units: the units.
+      gap: float32[N, N] edge-to-edge distances.
+
+    Returns:
+      (walking bool[N], target int32[N] the unit walked to, room float32[N] the
+      distance left before touching it; 0 for a worker already touching it).
+    """
+    n = units.num_slots
+    walking = harvesting(units) & (units.work <= 0)
+    target = jnp.clip(units.order_unit[:, 0], 0, n - 1)
+    left = gap[jnp.arange(n), target]
+    room = jnp.where(left > REACH, left - REACH + 1e-3, 0.0)
+    return walking, target, room
+
+
+def resolve_returns(units: Units, dist) -> Units:
+    """Gives RETURN orders without a target (`Harvest_Return`) the nearest Command
+    Center, before the loop's movement."""
+    first = units.orders[:, 0] == Order.RETURN
+    unset = first & (units.order_unit[:, 0] < 0)
+    return units.replace(order_unit=units.order_unit.at[:, 0].set(
+        jnp.where(unset, nearest_depot(units, dist), units.order_unit[:, 0])))
+
+
+def harvest(units: Units, touching, dist) -> tuple[Units, jnp.ndarray, jnp.ndarray]:
+    """One loop of the harvest cycle, after the loop's movement.
+
+    Args:
+      units: the units after moving.
+      touching: bool[N] the unit touches its order's target unit.
+      dist: float32[N, N] centre distances (to find Command Centers).
+
+    Returns:
+      (units, delivered, done): delivered is float32[N], the minerals each unit
+      deposited; done is bool[N], the workers whose order ended (its field or Command
+      Center is gone, or there was nothing to return), for the caller to advance their
+      order queues.
+    """
+    n = units.num_slots
+    rows = jnp.arange(n)
+    order, target = units.orders[:, 0], units.order_unit[:, 0]
+    safe = jnp.clip(target, 0, n - 1)
+    field_ok = (target >= 0) & units.alive[safe] & (units.contents[safe] > 0)
+    gather = units.alive & (order == Order.GATHER)
+    returning = units.alive & (order == Order.RETURN)
+    depot = nearest_depot(units, dist)
+
+    # Mining: the clock runs down; a finished worker takes its cargo.
+    mining = gather & (units.work > 0)
+    work = jnp.where(mining, units.work - 1.0, units.work)
+    finished = mining & (work <= 0)
+    take = jnp.where(finished, jnp.minimum(MINERALS_PER_TRIP, units.contents[safe]), 0.0)
+    contents = units.contents.at[safe].add(-take)
+
+    # Starting to mine: at the field, empty-handed, the field free; the lowest slot first.
+    occupied = jnp.zeros(n, bool).at[safe].max(mining & ~finished)
+    waiting = gather & ~mining & touching & field_ok & (units.cargo == 0)
+    first = jnp.full(n, n, jnp.int32).at[safe].min(jnp.where(waiting, rows, n))
+    start = waiting & ~occupied[safe] & (first[safe] == rows)
+    work = jnp.where(start, MINING_LOOPS, jnp.where(finished, 0.0, work))
+
+    # Depositing at the Command Center.
+    deposit = returning & touching & (units.cargo > 0)
+    delivered = jnp.where(deposit, units.cargo, 0.0)
+    cargo = jnp.where(finished, take, jnp.where(deposit, 0.0, units.cargo))
+    home = jnp.where(finished | (gather & ~mining), target, units.home)
+
+    # Next orders: carrying workers return (also when told to gather); those that
+    # deposited gather again; workers whose field or depot is gone go idle.
+    to_return = (finished | (gather & ~mining & (cargo > 0))) & (depot >= 0)
+    home_ok = (home >= 0) & units.alive[jnp.clip(home, 0, n - 1)] & (
+        contents[jnp.clip(home, 0, n - 1)] > 0)
+    to_gather = deposit & home_ok
+    lost = ((gather & ~field_ok & ~finished) | (returning & ~deposit & (units.cargo == 0))
+            | (returning & (target < 0)) | (deposit & ~home_ok))
+    new_order = jnp.where(to_return, Order.RETURN, jnp.where(to_gather, Order.GATHER, order))
+    new_target = jnp.where(to_return, depot, jnp.where(to_gather, home, target))
+    units = units.replace(
+        orders=units.orders.at[:, 0].set(new_order),
+        order_unit=units.order_unit.at[:, 0].set(new_target),
+        cargo=cargo, work=work, contents=contents, home=home,
+        # A mined-out field disappears.
+        alive=units.alive & ~((units.type == UnitType.MINERAL_FIELD) & (contents <= 0)))
+    return units, delivered, lost

@@ -1,0 +1,128 @@
+"""Exact harvesting scenes: the gather, mine, return and deposit cycle (`harvest`).
+
+SCV: radius 0.375, speed 2.8125 / 16 = 0.17578 units per loop. Command Center radius
+2.75; MineralField radius 1.125, 1800 minerals. A worker touches a unit within 0.1
+(edge to edge), mines for 2.786 game seconds = 44.576 loops (done on the 45th), and
+carries 5 minerals.
+"""
+
+import functools
+import math
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+
+from sc2jax.environment import FUNCTIONS, commands
+from sc2jax.environment.availability import available_actions
+from sc2jax.environment.dynamics import game_loop
+from sc2jax.environment.harvest import MINING_LOOPS, REACH
+from sc2jax.environment.state import Order, Owner
+from sc2jax.environment.units import UNIT_DATA, UnitType
+
+from .test_mechanics import make_units
+
+PLAYABLE = (10.0, 10.0, 54.0, 54.0)
+_LOOP = jax.jit(functools.partial(game_loop, playable=PLAYABLE, workers=True))
+SPEED = 2.8125 / 16
+CC, FIELD = (30.0, 28.0), (36.0, 28.0)
+R_CC, R_FIELD, R_SCV = 2.75, 1.125, 0.375
+
+
+def scene(scv_xs, contents=1800.0):
+    """A Command Center (slot 0), a mineral field (slot 1), and SCVs (slots 2...) on the
+    line between them, each ordered to gather from the field."""
+    spec = [(0, UnitType.COMMAND_CENTER, Owner.SELF, CC, False),
+            (1, UnitType.MINERAL_FIELD, Owner.NEUTRAL, FIELD, False)]
+    spec += [(2 + i, UnitType.SCV, Owner.SELF, (x, 28.0), False) for i, x in enumerate(scv_xs)]
+    units = make_units(8, spec)
+    orders = np.asarray(units.orders).copy()
+    order_unit = np.asarray(units.order_unit).copy()
+    orders[2:2 + len(scv_xs), 0] = Order.GATHER
+    order_unit[2:2 + len(scv_xs), 0] = 1
+    return units.replace(orders=jnp.asarray(orders), order_unit=jnp.asarray(order_unit),
+                         contents=units.contents.at[1].set(contents))
+
+
+def run(units, loops):
+    """Runs `loops` loops; returns (units, minerals delivered per loop)."""
+    key = jax.random.PRNGKey(0)
+    delivered = []
+    for _ in range(loops):
+        key, k = jax.random.split(key)
+        units, events = _LOOP(units, k)
+        delivered.append(float(events.minerals))
+    return units, np.array(delivered)
+
+
+def test_one_trip_delivers_five_minerals_after_walk_mine_and_walk_back():
+    # The SCV starts touching the Command Center (gap 0.05). It walks to the field (gap
+    # 1.325 -> within 0.1: ceil(1.225 / 0.17578) = 7 loops) and starts mining on the
+    # loop it arrives, finishes 45 loops later, and walks back (it stopped 0.099 from the
+    # field, 1.276 from the Command Center: 7 loops): the deposit is on loop 59.
+    start = CC[0] + R_CC + R_SCV + 0.05
+    gap_out = FIELD[0] - R_FIELD - R_SCV - start
+    walk_out = math.ceil((gap_out - REACH) / SPEED)
+    stop = FIELD[0] - R_FIELD - R_SCV - (REACH - 1e-3)
+    walk_back = math.ceil((stop - (CC[0] + R_CC + R_SCV) - REACH) / SPEED)
+    mine = math.ceil(MINING_LOOPS)
+    assert (walk_out, mine, walk_back) == (7, 45, 7)
+    units = scene([start])
+    units, delivered = run(units, walk_out + mine + walk_back + 2)
+    (trips,) = np.nonzero(delivered)
+    assert trips.tolist() == [walk_out + mine + walk_back - 1]  # Loop 59, 0-based 58.
+    assert delivered[trips[0]] == 5.0
+    assert float(units.contents[1]) == 1795.0
+    # It heads back to the same field, empty-handed.
+    assert int(units.orders[2, 0]) == Order.GATHER and int(units.order_unit[2, 0]) == 1
+    assert float(units.cargo[2]) == 0.0 and int(units.home[2]) == 1
+
+
+def test_a_field_is_mined_by_one_worker_at_a_time():
+    # Two SCVs touch the field at once: slot 2 starts mining on loop 1 and finishes 45
+    # loops later (loop 46); slot 3 waits beside it and starts on that loop (both keep
+    # their places: harvesting workers pass through each other).
+    x = FIELD[0] - R_FIELD - R_SCV - 0.05
+    units, _ = run(scene([x, x]), 1)
+    assert float(units.work[2]) == np.float32(MINING_LOOPS) and float(units.work[3]) == 0.0
+    units, _ = run(units, 44)
+    assert float(units.work[3]) == 0.0 and float(units.cargo[2]) == 0.0
+    units, _ = run(units, 1)
+    assert int(units.orders[2, 0]) == Order.RETURN and float(units.cargo[2]) == 5.0
+    assert int(units.order_unit[2, 0]) == 0  # The nearest Command Center.
+    assert float(units.work[3]) > 0  # Slot 3 took the free field.
+    np.testing.assert_allclose(units.pos[3], (x, 28.0))
+
+
+def test_a_mined_out_field_disappears_and_its_workers_go_idle():
+    x = FIELD[0] - R_FIELD - R_SCV - 0.05
+    units, delivered = run(scene([x], contents=3.0), 80)
+    # The last 3 minerals are taken and delivered; the field is gone; the SCV, back at
+    # the Command Center with nowhere to return to, is idle.
+    assert delivered.sum() == 3.0
+    assert not bool(units.alive[1])
+    assert int(units.orders[2, 0]) == Order.NONE and float(units.cargo[2]) == 0.0
+    assert UNIT_DATA.contents[UnitType.MINERAL_FIELD] == 1800.0
+
+
+def test_only_workers_take_harvest_orders_and_return_cargo_needs_cargo():
+    units = make_units(8, [(0, UnitType.COMMAND_CENTER, Owner.SELF, CC, False),
+                           (1, UnitType.MINERAL_FIELD, Owner.NEUTRAL, FIELD, False),
+                           (2, UnitType.SCV, Owner.SELF, (33.5, 28.0), True),
+                           (3, UnitType.MARINE, Owner.SELF, (33.5, 30.0), True)])
+    gathered, ok = commands.issue(units, Order.GATHER, 0, jnp.array(FIELD), 1)
+    assert bool(ok)
+    assert np.asarray(gathered.orders[2:4, 0]).tolist() == [Order.GATHER, Order.NONE]
+    assert int(gathered.order_unit[2, 0]) == 1
+    available = np.asarray(available_actions(units))
+    assert available[FUNCTIONS.Harvest_Gather_screen.id]
+    assert not available[FUNCTIONS.Harvest_Return_quick.id]
+    carrying = units.replace(cargo=units.cargo.at[2].set(5.0))
+    assert np.asarray(available_actions(carrying))[FUNCTIONS.Harvest_Return_quick.id]
+    # A return order without a target heads for the nearest Command Center and deposits.
+    returning, _ = commands.issue(carrying, Order.RETURN, 0, jnp.array(CC))
+    assert int(returning.order_unit[2, 0]) == -1
+    after, delivered = run(returning, 10)
+    assert delivered.sum() == 5.0 and float(after.cargo[2]) == 0.0
+    # With no home field it then goes idle.
+    assert int(after.orders[2, 0]) == Order.NONE
