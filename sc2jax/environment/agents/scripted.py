@@ -33,9 +33,9 @@ _SELECT_ARMY = FUNCTIONS.select_army.id
 _MOVE_SCREEN = FUNCTIONS.Move_screen.id
 _ATTACK_MINIMAP = FUNCTIONS.Attack_minimap.id
 _ATTACK_SCREEN = FUNCTIONS.Attack_screen.id
-_ROACH, _BANELING = 110, 9  # StarCraft II unit ids.
-# DefeatZerglingsAndBanelings: marines step back while a baneling is this close (world
-# units, centre to centre), and go this far (world units) per retreat order.
+_BANELING = 9  # The StarCraft II unit id.
+# DefeatZerglingsAndBanelings: marines stutter-step while a baneling is this close (world
+# units, from the marines' centre), and each step back aims this far (world units).
 _BANELING_DANGER = 4.5
 _RETREAT = 4.0
 
@@ -169,9 +169,10 @@ def defeat_roaches(key, obs) -> DenseAction:
 
 
 def defeat_zerglings_and_banelings(key, obs) -> DenseAction:
-    """Kites the banelings: while one is within `_BANELING_DANGER` of the marines'
-    centre the army steps back, away from it; otherwise it shoots the nearest baneling
-    (from range, so that it bursts away from the marines), then the nearest zergling."""
+    """Kites the banelings: the army shoots the nearest baneling (from range, so that it
+    bursts away from the marines), then the nearest zergling; while a baneling is within
+    `_BANELING_DANGER` of the marines' centre it stutter-steps, shooting on one agent step
+    and stepping straight away from that baneling on the next."""
     del key
     marine, marine_xy, centre, ready = _army_ready(obs)
     enemy, enemy_xy, _ = _units(obs, PlayerRelative.ENEMY)

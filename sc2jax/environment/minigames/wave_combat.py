@@ -17,7 +17,7 @@ reference/pysc2_facts.md §4):
 - the end at the 120 s timer, or defeat when every marine is dead.
 
 The enemies are created idle and fight as idle units do (`dynamics`): they acquire
-marines that come within range and turn on their attackers.
+marines that come within range, and turn on whoever attacks them or an ally near them.
 
 Marines occupy slots [0, MARINE_SLOTS); a wave reset that would exceed them adds fewer
 reinforcements (docs/fidelity.md).
