@@ -177,9 +177,8 @@ def game_loop(units: Units, key, playable, bursts: bool = False,
     # its cooldown plus a jitter of -1..+2 loops. A ready weapon that does not fire
     # gains no credit.
     fires = in_range & (units.cooldown <= 0.0) & alive
-    per_hit = _damage_per_hit(data)
     single = fires & (data.burst <= 0) if bursts else fires
-    hits = jnp.where(single, per_hit[rows, safe_target], 0.0)
+    hits = jnp.where(single, _damage_per_hit(data, safe_target), 0.0)
     damage = jnp.zeros(n, jnp.float32).at[safe_target].add(hits)
     # Volatile bursts: a unit that attacks with one dies, and one killed by this loop's
     # other damage bursts too (a single round: no map has bursting units on both sides).
@@ -187,7 +186,7 @@ def game_loop(units: Units, key, playable, bursts: bool = False,
     if bursts:
         exploded = fires & (data.burst > 0)
         reach = enemy & (dist - data.radius[None, :] <= data.burst[:, None])
-        splash = jnp.where(reach, per_hit, 0.0)
+        splash = jnp.where(reach, _damage_per_hit(data, jnp.broadcast_to(rows, (n, n))), 0.0)
         received = lambda by: jnp.sum(jnp.where(by[:, None], splash, 0.0), axis=0)  # noqa: E731
         killed = alive & (units.health - damage - received(exploded) <= 0) & ~exploded
         exploding = exploded | (killed & (data.burst > 0))
@@ -238,12 +237,21 @@ def game_loop(units: Units, key, playable, bursts: bool = False,
     return _complete_orders(units, pos, step, goal_dist, has_target, moving), events
 
 
-def _damage_per_hit(data):
-    """float32[N, N]: the damage one attack of i deals to j: damage, plus the bonus
-    against Light targets, minus armour, and at least 0.5 (the game's minimum)."""
-    light = (data.attributes & Attribute.LIGHT) > 0
-    bonus = jnp.where(light[None, :], data.bonus_light[:, None], 0.0)
-    return jnp.maximum(data.damage[:, None] + bonus - data.armor[None, :], 0.5)
+def _damage_per_hit(data, target):
+    """The damage one attack of unit i deals to the slots `target[i]`: damage, plus the
+    bonus against Light targets, minus armour, and at least 0.5 (the game's minimum).
+
+    Args:
+      data: per-unit stats of the N attackers.
+      target: int32[N] (one target each) or int32[N, M] target slots.
+
+    Returns:
+      float32 of `target`'s shape.
+    """
+    own = lambda x: x.reshape(x.shape + (1,) * (target.ndim - 1))  # noqa: E731
+    light = (data.attributes[target] & Attribute.LIGHT) > 0
+    return jnp.maximum(own(data.damage) + jnp.where(light, own(data.bonus_light), 0.0)
+                       - data.armor[target], 0.5)
 
 
 def _complete_orders(units: Units, old_pos, step, goal_dist, has_target, moving) -> Units:

@@ -20,7 +20,7 @@ from sc2jax.environment.minigames.wave_combat import LEFT, MARINE_SLOTS, RIGHT, 
 from sc2jax.environment.state import Order, Outcome, Owner
 
 from .conftest import small_sim
-from .test_mechanics import make_units, set_unit
+from .test_mechanics import make_units, with_orders
 
 SLOTS = 8
 PLAYABLE = (22.0, 20.0, 44.0, 36.0)
@@ -34,20 +34,7 @@ def units_of(spec, orders=()):
     """Units from (slot, type, owner, (x, y)) rows; `orders` are (slot, Order, target
     slot or None, (x, y))."""
     units = make_units(SLOTS, [(s, t, o, xy, False) for s, t, o, xy in spec])
-
-    class Holder:  # set_unit works on anything with `.units` and `.replace`.
-        def __init__(self, units):
-            self.units = units
-
-        def replace(self, units):
-            return Holder(units)
-
-    holder = Holder(units)
-    for slot, order, target, xy in orders:
-        holder = set_unit(holder, slot, order=(order, xy))
-        if target is not None:
-            holder = set_unit(holder, slot, order_unit=(target, -1, -1, -1))
-    return holder.units
+    return with_orders(units, orders)
 
 
 def run(units, loops, seed=0):

@@ -20,7 +20,7 @@ from sc2jax.environment.harvest import MINING_LOOPS, REACH
 from sc2jax.environment.state import Order, Owner
 from sc2jax.environment.units import UNIT_DATA, UnitType
 
-from .test_mechanics import make_units
+from .test_mechanics import make_units, with_orders
 
 PLAYABLE = (10.0, 10.0, 54.0, 54.0)
 _LOOP = jax.jit(functools.partial(game_loop, playable=PLAYABLE, workers=True))
@@ -35,13 +35,9 @@ def scene(scv_xs, contents=1800.0):
     spec = [(0, UnitType.COMMAND_CENTER, Owner.SELF, CC, False),
             (1, UnitType.MINERAL_FIELD, Owner.NEUTRAL, FIELD, False)]
     spec += [(2 + i, UnitType.SCV, Owner.SELF, (x, 28.0), False) for i, x in enumerate(scv_xs)]
-    units = make_units(8, spec)
-    orders = np.asarray(units.orders).copy()
-    order_unit = np.asarray(units.order_unit).copy()
-    orders[2:2 + len(scv_xs), 0] = Order.GATHER
-    order_unit[2:2 + len(scv_xs), 0] = 1
-    return units.replace(orders=jnp.asarray(orders), order_unit=jnp.asarray(order_unit),
-                         contents=units.contents.at[1].set(contents))
+    units = with_orders(make_units(8, spec),
+                        [(2 + i, Order.GATHER, 1, FIELD) for i in range(len(scv_xs))])
+    return units.replace(contents=units.contents.at[1].set(contents))
 
 
 def run(units, loops):

@@ -83,6 +83,16 @@ def make_units(num_slots, units_spec):
     return jax.tree_util.tree_map(jnp.asarray, units)
 
 
+def with_orders(units, orders):
+    """Units with their current orders set: (slot, Order, target slot or None, (x, y))."""
+    units = jax.tree_util.tree_map(np.array, jax.device_get(units))
+    for slot, order, target, xy in orders:
+        units.orders[slot, 0], units.order_pos[slot, 0] = order, xy
+        if target is not None:
+            units.order_unit[slot, 0] = target
+    return jax.tree_util.tree_map(jnp.asarray, units)
+
+
 def scene(units_spec, camera=CAM):
     """A state of the map holding only the given units, and the shared compiled step.
 

@@ -174,7 +174,7 @@ def defeat_zerglings_and_banelings(key, obs) -> DenseAction:
     `_BANELING_DANGER` of the marines' centre it stutter-steps, shooting on one agent step
     and stepping straight away from that baneling on the next."""
     del key
-    marine, marine_xy, centre, ready = _army_ready(obs)
+    marine, _, centre, ready = _army_ready(obs)
     enemy, enemy_xy, _ = _units(obs, PlayerRelative.ENEMY)
     kind = obs["feature_units"][:, FeatureUnit.unit_type]
     baneling = enemy & (kind == _BANELING)
