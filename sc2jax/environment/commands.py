@@ -30,7 +30,7 @@ def obeys(units: Units, order):
         needs_weapon | (order == Order.HOLD), moves | armed, moves))
 
 
-def issue(units: Units, order, queued, point, target_unit=NO_TARGET):
+def issue(units: Units, order, queued, point, target_unit=NO_TARGET, unit_type=0):
     """Gives an order to the selected units.
 
     Args:
@@ -39,8 +39,9 @@ def issue(units: Units, order, queued, point, target_unit=NO_TARGET):
         RETURN).
       queued: int32 0 (now) or 1 (queued).
       point: float32[2] world target point.
-      target_unit: int32 target slot for ATTACK_UNIT and GATHER (-1 for RETURN: the
-        nearest Command Center), else -1.
+      target_unit: int32 target slot for ATTACK_UNIT, GATHER and CONSTRUCT (-1 for
+        RETURN: the nearest Command Center), else -1.
+      unit_type: int32 the `UnitType` a BUILD order places, else 0.
 
     Returns:
       (units, ok): ok is False if no selected unit could take the order.
@@ -59,9 +60,10 @@ def issue(units: Units, order, queued, point, target_unit=NO_TARGET):
     order_pos = jnp.where(at_slot[..., None], point, jnp.where(after[..., None], 0.0,
                                                                 units.order_pos))
     order_unit = jnp.where(at_slot, target_unit, jnp.where(after, NO_TARGET, units.order_unit))
+    order_type = jnp.where(at_slot, unit_type, jnp.where(after, 0, units.order_type))
     starts_now = takes & (slot == 0)
     units = units.replace(
-        orders=orders, order_pos=order_pos, order_unit=order_unit,
+        orders=orders, order_pos=order_pos, order_unit=order_unit, order_type=order_type,
         patrol_origin=jnp.where(starts_now[:, None], units.pos, units.patrol_origin),
         target=jnp.where(starts_now, jnp.where(order == Order.ATTACK_UNIT, target_unit,
                                                NO_TARGET), units.target))
@@ -74,5 +76,6 @@ def stop(units: Units):
     units = units.replace(
         orders=jnp.where(who[:, None], Order.NONE, units.orders),
         order_unit=jnp.where(who[:, None], NO_TARGET, units.order_unit),
+        order_type=jnp.where(who[:, None], 0, units.order_type),
         target=jnp.where(who, NO_TARGET, units.target))
     return units, who.any()

@@ -67,6 +67,7 @@ def pop_order(units: Units, done) -> Units:
         orders=orders,
         order_pos=shift(units.order_pos, 0.0),
         order_unit=shift(units.order_unit, NO_TARGET),
+        order_type=shift(units.order_type, 0),
         patrol_origin=jnp.where(starts_patrol[:, None], units.pos, units.patrol_origin),
         target=jnp.where(done, NO_TARGET, units.target))
 

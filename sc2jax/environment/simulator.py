@@ -216,6 +216,7 @@ class Simulator:
             score_cumulative=jnp.zeros(NUM_SCORE_CUMULATIVE, jnp.int32),
             score_by_vital=jnp.zeros((3, 3), jnp.float32),
             minerals=jnp.int32(self.game.starting_minerals), vespene=jnp.int32(0),
+            collection_rate=jnp.zeros(2, jnp.float32),
             explored=jnp.zeros((h, w), bool), next_tag=jnp.int32(next_tag),
             last_action=jnp.int32(-1), action_result=jnp.int32(0),
             outcome=jnp.int32(Outcome.RUNNING), episode_step=jnp.int32(0),

@@ -8,14 +8,20 @@ vmapped, and compared bit for bit. `N` is the number of unit slots, fixed per ma
 from __future__ import annotations
 
 import enum
+import math
 
 import jax
 import jax.numpy as jnp
 from flax import struct
 
 from sc2jax.environment import observation_tables as tables
+from sc2jax.environment.units import UNIT_DATA
+
+# Facing of units created with the editor's default facing (270 degrees).
+DEFAULT_FACING = -math.pi / 2
 
 ORDER_QUEUE = 4
+BUILD_QUEUE = 5
 NO_TARGET = -1
 
 
@@ -30,6 +36,8 @@ class Order(enum.IntEnum):
     HOLD = 5
     GATHER = 6
     RETURN = 7
+    BUILD = 8  # Walk to the order's point and place a structure of the order's type.
+    CONSTRUCT = 9  # Build the order's target unit, an unfinished structure.
 
 
 class Owner(enum.IntEnum):
@@ -57,6 +65,7 @@ class Units:
       orders: int32[N, Q] `Order` queue; slot 0 is current.
       order_pos: float32[N, Q, 2] target points.
       order_unit: int32[N, Q] target unit slots, or -1.
+      order_type: int32[N, Q] the `UnitType` a BUILD order places, else 0.
       patrol_origin: float32[N, 2] where the current patrol leg started.
       target: int32[N] the unit being engaged (acquired or ordered), or -1.
       selected: bool[N].
@@ -65,6 +74,15 @@ class Units:
       work: float32[N] loops of harvesting left (a worker mining), else 0.
       contents: float32[N] resources left in a mineral field or geyser.
       home: int32[N] the resource a worker harvests (it returns there), or -1.
+      gas: bool[N] a worker's cargo is vespene (else minerals).
+      progress: float32[N] loops of construction done; a unit is complete once this
+        reaches its type's `build_time` (units the map creates start complete).
+      queue: int32[N, B] a producer's training queue of `UnitType`s, 0 for empty.
+      queue_work: float32[N] loops of training done on `queue[:, 0]`.
+      rally: float32[N, 2] a producer's rally point.
+      rally_unit: int32[N] the unit the rally targets (new workers gather from a
+        resource), or -1.
+      rallied: bool[N] a rally is set.
     """
 
     alive: jax.Array
@@ -80,6 +98,7 @@ class Units:
     orders: jax.Array
     order_pos: jax.Array
     order_unit: jax.Array
+    order_type: jax.Array
     patrol_origin: jax.Array
     target: jax.Array
     selected: jax.Array
@@ -88,6 +107,13 @@ class Units:
     work: jax.Array
     contents: jax.Array
     home: jax.Array
+    gas: jax.Array
+    progress: jax.Array
+    queue: jax.Array
+    queue_work: jax.Array
+    rally: jax.Array
+    rally_unit: jax.Array
+    rallied: jax.Array
 
     @property
     def num_slots(self) -> int:
@@ -96,16 +122,19 @@ class Units:
     @classmethod
     def empty(cls, num_slots: int) -> Units:
         """Returns N empty slots."""
-        n, q = num_slots, ORDER_QUEUE
+        n, q, b = num_slots, ORDER_QUEUE, BUILD_QUEUE
         f = lambda *s: jnp.zeros(s, jnp.float32)  # noqa: E731
         i = lambda *s: jnp.zeros(s, jnp.int32)  # noqa: E731
         return cls(
             alive=jnp.zeros(n, bool), type=i(n), owner=i(n), tag=i(n), pos=f(n, 2),
             facing=f(n), health=f(n), shields=f(n), energy=f(n), cooldown=f(n),
-            orders=i(n, q), order_pos=f(n, q, 2), order_unit=jnp.full((n, q), NO_TARGET, jnp.int32),
+            orders=i(n, q), order_pos=f(n, q, 2),
+            order_unit=jnp.full((n, q), NO_TARGET, jnp.int32), order_type=i(n, q),
             patrol_origin=f(n, 2), target=jnp.full((n,), NO_TARGET, jnp.int32),
             selected=jnp.zeros(n, bool), groups=i(n), cargo=f(n), work=f(n), contents=f(n),
-            home=jnp.full((n,), NO_TARGET, jnp.int32))
+            home=jnp.full((n,), NO_TARGET, jnp.int32), gas=jnp.zeros(n, bool), progress=f(n),
+            queue=i(n, b), queue_work=f(n), rally=f(n, 2),
+            rally_unit=jnp.full((n,), NO_TARGET, jnp.int32), rallied=jnp.zeros(n, bool))
 
 
 @struct.dataclass
@@ -120,6 +149,8 @@ class EnvState:
       score_cumulative: int32[13] the rest of `score_cumulative` (index 0 mirrors `score`).
       score_by_vital: float32[3, 3] `score_by_vital` (damage dealt, taken, healed).
       minerals, vespene: int32 scalars.
+      collection_rate: float32[2] minerals and vespene collected per game minute, a
+        moving average (`score_cumulative`'s collection rates).
       explored: bool[map_h, map_w] cells the player has ever seen, row 0 at the top (as
         the `MapGeometry` grids).
       next_tag: int32 scalar, the next unit tag.
@@ -139,6 +170,7 @@ class EnvState:
     score_by_vital: jax.Array
     minerals: jax.Array
     vespene: jax.Array
+    collection_rate: jax.Array
     explored: jax.Array
     next_tag: jax.Array
     last_action: jax.Array
@@ -147,6 +179,54 @@ class EnvState:
     episode_step: jax.Array
     map_state: object
     key: jax.Array
+
+
+def place(units: Units, slots, unit_type, owner, positions, next_tag, selected=False):
+    """Creates units in the given slots, complete, at full health, with no orders.
+
+    Args:
+      units: the units.
+      slots: int32[k] slots to fill (slots >= N are ignored).
+      unit_type: `UnitType` (int or int32[k]).
+      owner: `Owner` (int or int32[k]).
+      positions: float32[k, 2].
+      next_tag: int32 first tag to hand out.
+      selected: whether the new units are selected (bool or bool[k]).
+
+    Returns:
+      (units, next_tag).
+    """
+    slots = jnp.asarray(slots)
+    k = slots.shape[0]
+    types = jnp.broadcast_to(jnp.asarray(unit_type, jnp.int32), (k,))
+    data = UNIT_DATA
+
+    def put(field, values):
+        return field.at[slots].set(values, mode="drop")
+
+    units = units.replace(
+        alive=put(units.alive, True),
+        type=put(units.type, types),
+        owner=put(units.owner, jnp.broadcast_to(jnp.asarray(owner, jnp.int32), (k,))),
+        tag=put(units.tag, next_tag + jnp.arange(k, dtype=jnp.int32)),
+        pos=put(units.pos, positions),
+        facing=put(units.facing, DEFAULT_FACING),
+        health=put(units.health, jnp.asarray(data.max_health)[types]),
+        shields=put(units.shields, jnp.asarray(data.max_shields)[types]),
+        energy=put(units.energy, 0.0),
+        cooldown=put(units.cooldown, 0.0),
+        orders=put(units.orders, Order.NONE),
+        order_unit=put(units.order_unit, NO_TARGET),
+        target=put(units.target, NO_TARGET),
+        selected=put(units.selected, jnp.broadcast_to(jnp.asarray(selected), (k,))),
+        groups=put(units.groups, 0), cargo=put(units.cargo, 0.0), work=put(units.work, 0.0),
+        contents=put(units.contents, jnp.asarray(data.contents)[types]),
+        home=put(units.home, NO_TARGET), order_type=put(units.order_type, 0),
+        gas=put(units.gas, False),
+        progress=put(units.progress, jnp.asarray(data.build_time)[types]),
+        queue=put(units.queue, 0), queue_work=put(units.queue_work, 0.0),
+        rally_unit=put(units.rally_unit, NO_TARGET), rallied=put(units.rallied, False))
+    return units, next_tag + k
 
 
 class Outcome(enum.IntEnum):

@@ -65,6 +65,10 @@ class UnitData(NamedTuple):
       burst: the radius of a suicide splash attack (0: none), world units. Such a unit
         (the Baneling's Volatile Burst) dies when it attacks, and also bursts when killed.
       contents: the resources a mineral field or geyser starts with (0: not a resource).
+      build_time: loops to train the unit or construct the structure.
+      supply: food the unit provides (the supply cap it adds once complete).
+      footprint: int32[T, 2] the (width, height) in map cells a structure or resource
+        blocks for placement (0 for units that block nothing).
     """
 
     sc2_id: np.ndarray
@@ -87,6 +91,9 @@ class UnitData(NamedTuple):
     vespene_cost: np.ndarray
     burst: np.ndarray
     contents: np.ndarray
+    build_time: np.ndarray
+    supply: np.ndarray
+    footprint: np.ndarray
 
 
 _L, _A, _B, _M, _S = (Attribute.LIGHT, Attribute.ARMORED, Attribute.BIOLOGICAL,
@@ -132,6 +139,17 @@ _BURST = {UnitType.BANELING: 2.2}
 # Resources: a MineralField holds 1800 minerals (Legacy of the Void), a geyser 2250 gas.
 _CONTENTS = {UnitType.MINERAL_FIELD: 1800, UnitType.VESPENE_GEYSER: 2250}
 
+# Train and construction times in game loops (reference/pysc2_facts.md §7).
+_BUILD_TIME = {UnitType.SCV: 272, UnitType.MARINE: 400, UnitType.SUPPLY_DEPOT: 480,
+               UnitType.BARRACKS: 1040, UnitType.REFINERY: 480, UnitType.COMMAND_CENTER: 1600}
+
+_SUPPLY = {UnitType.COMMAND_CENTER: 15, UnitType.SUPPLY_DEPOT: 8}
+
+# Placement footprints in cells (width, height).
+_FOOTPRINT = {UnitType.MINERAL_FIELD: (2, 1), UnitType.VESPENE_GEYSER: (3, 3),
+              UnitType.COMMAND_CENTER: (5, 5), UnitType.SUPPLY_DEPOT: (2, 2),
+              UnitType.BARRACKS: (3, 3), UnitType.REFINERY: (3, 3)}
+
 
 def _build() -> UnitData:
     rows = [_TABLE[t] for t in UnitType]
@@ -150,7 +168,10 @@ def _build() -> UnitData:
         attributes=i32([int(a) for a in attributes]), is_army=np.asarray(is_army, bool),
         food=f32(food), mineral_cost=i32(minerals), vespene_cost=i32(vespene),
         burst=f32([_BURST.get(t, 0.0) for t in UnitType]),
-        contents=f32([_CONTENTS.get(t, 0) for t in UnitType]))
+        contents=f32([_CONTENTS.get(t, 0) for t in UnitType]),
+        build_time=f32([_BUILD_TIME.get(t, 0) for t in UnitType]),
+        supply=f32([_SUPPLY.get(t, 0) for t in UnitType]),
+        footprint=i32([_FOOTPRINT.get(t, (0, 0)) for t in UnitType]))
 
 
 UNIT_DATA = _build()

@@ -28,8 +28,7 @@ import pytest
 from sc2jax.environment import FUNCTIONS, ActionResult, FeatureUnit, make, to_dense
 from sc2jax.environment.dynamics import LoopEvents, game_loop
 from sc2jax.environment.minigames import get_map
-from sc2jax.environment.minigames.base import DEFAULT_FACING
-from sc2jax.environment.state import Order, Owner, Units
+from sc2jax.environment.state import DEFAULT_FACING, Order, Owner, Units
 from sc2jax.environment.units import UNIT_DATA, UnitType
 
 from .conftest import PARAMS, SMALL_MAKE, compiled, small_sim

@@ -18,13 +18,10 @@ import numpy as np
 
 from sc2jax.environment.dynamics import LoopEvents
 from sc2jax.environment.geometry import MapGeometry
-from sc2jax.environment.state import NO_TARGET, EnvState, Order, Units
+from sc2jax.environment.state import EnvState, Units
 from sc2jax.environment.units import UNIT_DATA, UnitType
 
 Rect = tuple[float, float, float, float]
-
-# Facing of units created with the editor's default facing (270 degrees).
-DEFAULT_FACING = -np.pi / 2
 
 MAP_SIZE = (64, 64)
 CAMERA_BOUNDS = (10.0, 8.0, 54.0, 44.0)
@@ -136,50 +133,6 @@ def first_valid(key, sample: Callable, valid: Callable, tries: int = 32):
     ok = valid(candidates)
     index = jnp.where(ok.any(), jnp.argmax(ok), tries - 1)
     return candidates[index]
-
-
-def place(units: Units, slots, unit_type, owner, positions, next_tag, selected=False):
-    """Creates units in the given slots, at full health with no orders.
-
-    Args:
-      units: the units.
-      slots: int32[k] slots to fill.
-      unit_type: `UnitType` (int or int32[k]).
-      owner: `Owner` (int or int32[k]).
-      positions: float32[k, 2].
-      next_tag: int32 first tag to hand out.
-      selected: whether the new units are selected (bool or bool[k]).
-
-    Returns:
-      (units, next_tag).
-    """
-    slots = jnp.asarray(slots)
-    k = slots.shape[0]
-    types = jnp.broadcast_to(jnp.asarray(unit_type, jnp.int32), (k,))
-    data = UNIT_DATA
-
-    def put(field, values):
-        return field.at[slots].set(values)
-
-    units = units.replace(
-        alive=put(units.alive, True),
-        type=put(units.type, types),
-        owner=put(units.owner, jnp.broadcast_to(jnp.asarray(owner, jnp.int32), (k,))),
-        tag=put(units.tag, next_tag + jnp.arange(k, dtype=jnp.int32)),
-        pos=put(units.pos, positions),
-        facing=put(units.facing, DEFAULT_FACING),
-        health=put(units.health, jnp.asarray(data.max_health)[types]),
-        shields=put(units.shields, jnp.asarray(data.max_shields)[types]),
-        energy=put(units.energy, 0.0),
-        cooldown=put(units.cooldown, 0.0),
-        orders=put(units.orders, Order.NONE),
-        order_unit=put(units.order_unit, NO_TARGET),
-        target=put(units.target, NO_TARGET),
-        selected=put(units.selected, jnp.broadcast_to(jnp.asarray(selected), (k,))),
-        groups=put(units.groups, 0), cargo=put(units.cargo, 0.0), work=put(units.work, 0.0),
-        contents=put(units.contents, jnp.asarray(data.contents)[types]),
-        home=put(units.home, NO_TARGET))
-    return units, next_tag + k
 
 
 def nearest_distance(points, others, mask):

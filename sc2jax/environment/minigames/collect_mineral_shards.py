@@ -17,10 +17,9 @@ from sc2jax.environment.minigames.base import (
     first_valid,
     flat_geometry,
     nearest_distance,
-    place,
     uniform_in_rect,
 )
-from sc2jax.environment.state import Owner, Units
+from sc2jax.environment.state import Owner, Units, place
 from sc2jax.environment.units import UNIT_DATA, UnitType
 
 REGION_1 = (22.0, 20.0, 44.0, 36.0)

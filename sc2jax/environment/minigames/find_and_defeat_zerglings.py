@@ -21,10 +21,9 @@ from sc2jax.environment.minigames.base import (
     first_valid,
     flat_geometry,
     nearest_distance,
-    place,
     uniform_in_rect,
 )
-from sc2jax.environment.state import Outcome, Owner, Units
+from sc2jax.environment.state import Outcome, Owner, Units, place
 from sc2jax.environment.units import UnitType
 
 REGION_1 = (10.0, 12.0, 54.0, 44.0)

@@ -15,10 +15,9 @@ from sc2jax.environment.minigames.base import (
     MiniGame,
     first_valid,
     flat_geometry,
-    place,
     uniform_in_rect,
 )
-from sc2jax.environment.state import Owner, Units
+from sc2jax.environment.state import Owner, Units, place
 from sc2jax.environment.units import UnitType
 
 REGION_1 = (22.0, 20.0, 44.0, 36.0)

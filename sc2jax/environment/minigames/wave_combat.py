@@ -29,8 +29,8 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from sc2jax.environment.minigames.base import MiniGame, flat_geometry, place, uniform_in_rect
-from sc2jax.environment.state import Outcome, Owner, Units
+from sc2jax.environment.minigames.base import MiniGame, flat_geometry, uniform_in_rect
+from sc2jax.environment.state import Outcome, Owner, Units, place
 from sc2jax.environment.units import UNIT_DATA, UnitType
 
 REGION_1 = (22.0, 20.0, 44.0, 36.0)  # Playable Space (22.0002 in the map).
