@@ -37,12 +37,25 @@ class LoopEvents(NamedTuple):
       damage_dealt: float32 scalar, damage dealt by the player's units.
       damage_taken: float32 scalar, damage taken by the player's units.
       minerals: float32 scalar, minerals the player's workers deposited.
+      vespene: float32 scalar, vespene the player's workers deposited.
+      created: bool[N] slots where a unit was trained or a structure placed (filled in
+        by `production.production_loop`; all False from `game_loop`).
     """
 
     died: jax.Array
     damage_dealt: jax.Array
     damage_taken: jax.Array
     minerals: jax.Array
+    vespene: jax.Array
+    created: jax.Array
+
+    @classmethod
+    def none(cls, num_slots: int, died=None) -> LoopEvents:
+        """A loop where nothing happened (except the deaths in `died`, bool[N])."""
+        nothing = jnp.zeros(num_slots, bool)
+        zero = jnp.float32(0)
+        return cls(died=nothing if died is None else jnp.asarray(died), damage_dealt=zero,
+                   damage_taken=zero, minerals=zero, vespene=zero, created=nothing)
 
 
 def _data(types):
@@ -140,16 +153,18 @@ def game_loop(units: Units, key, playable, bursts: bool = False,
     order_goal = units.order_pos[:, 0]
     chasing = has_target & ~in_range & (order != Order.HOLD)
     goal = jnp.where(chasing[:, None], pos[safe_target], order_goal)
-    walking = (order == Order.MOVE) | (order == Order.ATTACK_MOVE) | (order == Order.PATROL)
+    walking = ((order == Order.MOVE) | (order == Order.ATTACK_MOVE) | (order == Order.PATROL)
+               | (order == Order.BUILD))
     moving = alive & (chasing | (walking & ~has_target)) & (data.speed > 0)
     to_goal = goal - pos
     goal_dist = jnp.sqrt(jnp.sum(to_goal * to_goal, axis=-1) + 1e-12)
     room = jnp.where(chasing, jnp.maximum(target_gap - data.range, 0.0) + 1e-3, goal_dist)
-    # Harvesting workers walk to their field or Command Center until they touch it.
+    # Working workers walk to their resource, Command Center or structure until they
+    # touch it.
     gathering = jnp.zeros(n, bool)
     if workers:
         units = harvest.resolve_returns(units, dist)
-        gathering = harvest.harvesting(units)
+        gathering = harvest.working(units)
         to_unit, unit_goal, unit_room = harvest.approach(units, gap)
         goal = jnp.where(to_unit[:, None], pos[unit_goal], goal)
         to_goal = goal - pos
@@ -215,20 +230,22 @@ def game_loop(units: Units, key, playable, bursts: bool = False,
     alive = alive & ~died
 
     own = units.owner == Owner.SELF
-    delivered = jnp.zeros(n, jnp.float32)
+    minerals = vespene = jnp.zeros(n, jnp.float32)
     if workers:
         gap_after = (jnp.sqrt(jnp.sum((new_pos - new_pos[unit_goal]) ** 2, axis=-1))
                      - data.radius - data.radius[unit_goal])
         units = units.replace(pos=new_pos, alive=alive)
-        units, delivered, ended = harvest.harvest(units, gathering & (gap_after <= harvest.REACH),
-                                                 dist)
+        units, minerals, vespene, ended = harvest.harvest(
+            units, gathering & (gap_after <= harvest.REACH), dist)
         units = pop_order(units, ended)
         alive = units.alive
     events = LoopEvents(
         died=died,
         damage_dealt=jnp.sum(jnp.where(own, hits, 0.0)),
         damage_taken=jnp.sum(jnp.where(own, damage, 0.0)),
-        minerals=jnp.sum(jnp.where(own, delivered, 0.0)))
+        minerals=jnp.sum(jnp.where(own, minerals, 0.0)),
+        vespene=jnp.sum(jnp.where(own, vespene, 0.0)),
+        created=jnp.zeros(n, bool))
 
     units = units.replace(
         pos=new_pos, facing=facing, cooldown=jnp.where(alive, cooldown, 0.0),

@@ -1,4 +1,4 @@
-"""Workers harvesting minerals: the gather, mine, return and deposit cycle.
+"""Workers harvesting minerals and gas: the gather, mine, return and deposit cycle.
 
 The game's cycle (reference/pysc2_facts.md §7), run once per game loop by
 `dynamics.game_loop` for maps with workers:
@@ -11,7 +11,10 @@ The game's cycle (reference/pysc2_facts.md §7), run once per game loop by
 - touching the Command Center deposits the cargo, and the worker goes back to GATHER
   from the same field;
 - a worker told to gather while it carries minerals returns them first;
-- a field mined out disappears, and the workers on it go idle.
+- a field mined out disappears, and the workers on it go idle;
+- gas the same way from the player's complete Refinery: 4 per trip after 1.981 game
+  seconds inside (`GAS_LOOPS`); a Refinery with no gas left stays, and its workers go
+  idle.
 
 Moving and mining workers pass through other units, as harvesting workers do in the
 game; they keep their orders' targets in `Units.order_unit`, and the field a worker
@@ -30,6 +33,9 @@ REACH = 0.1
 MINING_LOOPS = 2.786 * LOOPS_PER_SECOND
 """Loops a worker mines a mineral field for (2.786 game seconds: 45 whole loops)."""
 MINERALS_PER_TRIP = 5.0
+GAS_LOOPS = 1.981 * LOOPS_PER_SECOND
+"""Loops a worker harvests inside a Refinery for (1.981 game seconds: 32 whole loops)."""
+GAS_PER_TRIP = 4.0
 
 
 def harvesting(units: Units):
@@ -38,21 +44,28 @@ def harvesting(units: Units):
     return units.alive & ((order == Order.GATHER) | (order == Order.RETURN))
 
 
+def working(units: Units):
+    """bool[N]: living workers walking to (or busy at) a unit: harvesting or
+    constructing. They pass through other units."""
+    return harvesting(units) | (units.alive & (units.orders[:, 0] == Order.CONSTRUCT))
+
+
 def nearest_depot(units: Units, dist):
-    """int32[N]: each unit's nearest own Command Center (by centre distance), or -1.
+    """int32[N]: each unit's nearest own complete Command Center (by centre distance),
+    or -1.
 
     Args:
       units: the units.
       dist: float32[N, N] centre distances.
     """
-    depot = units.alive & (units.type == UnitType.COMMAND_CENTER)
+    depot = units.complete & (units.type == UnitType.COMMAND_CENTER)
     mine = depot[None, :] & (units.owner[:, None] == units.owner[None, :])
     nearest = jnp.argmin(jnp.where(mine, dist, jnp.inf), axis=1).astype(jnp.int32)
     return jnp.where(mine.any(axis=1), nearest, NO_TARGET)
 
 
 def approach(units: Units, gap):
-    """Where harvesting workers walk this loop.
+    """Where working workers (`working`) walk this loop.
 
     Args:
       units: the units.
@@ -63,7 +76,7 @@ def approach(units: Units, gap):
       distance left before touching it; 0 for a worker already touching it).
     """
     n = units.num_slots
-    walking = harvesting(units) & (units.work <= 0)
+    walking = working(units) & (units.work <= 0)
     target = jnp.clip(units.order_unit[:, 0], 0, n - 1)
     left = gap[jnp.arange(n), target]
     room = jnp.where(left > REACH, left - REACH + 1e-3, 0.0)
@@ -79,7 +92,8 @@ def resolve_returns(units: Units, dist) -> Units:
         jnp.where(unset, nearest_depot(units, dist), units.order_unit[:, 0])))
 
 
-def harvest(units: Units, touching, dist) -> tuple[Units, jnp.ndarray, jnp.ndarray]:
+def harvest(units: Units, touching, dist) -> tuple[Units, jnp.ndarray, jnp.ndarray,
+                                                   jnp.ndarray]:
     """One loop of the harvest cycle, after the loop's movement.
 
     Args:
@@ -88,16 +102,19 @@ def harvest(units: Units, touching, dist) -> tuple[Units, jnp.ndarray, jnp.ndarr
       dist: float32[N, N] centre distances (to find Command Centers).
 
     Returns:
-      (units, delivered, done): delivered is float32[N], the minerals each unit
-      deposited; done is bool[N], the workers whose order ended (its field or Command
-      Center is gone, or there was nothing to return), for the caller to advance their
-      order queues.
+      (units, minerals, vespene, done): minerals and vespene are float32[N], what each
+      unit deposited; done is bool[N], the workers whose order ended (its resource or
+      Command Center is gone, or there was nothing to return), for the caller to
+      advance their order queues.
     """
     n = units.num_slots
     rows = jnp.arange(n)
     order, target = units.orders[:, 0], units.order_unit[:, 0]
     safe = jnp.clip(target, 0, n - 1)
-    field_ok = (target >= 0) & units.alive[safe] & (units.contents[safe] > 0)
+    refinery = units.type[safe] == UnitType.REFINERY
+    harvestable = jnp.where(refinery, units.complete[safe] & (units.owner[safe] == units.owner),
+                            units.type[safe] == UnitType.MINERAL_FIELD)
+    field_ok = (target >= 0) & units.alive[safe] & (units.contents[safe] > 0) & harvestable
     gather = units.alive & (order == Order.GATHER)
     returning = units.alive & (order == Order.RETURN)
     depot = nearest_depot(units, dist)
@@ -106,7 +123,8 @@ def harvest(units: Units, touching, dist) -> tuple[Units, jnp.ndarray, jnp.ndarr
     mining = gather & (units.work > 0)
     work = jnp.where(mining, units.work - 1.0, units.work)
     finished = mining & (work <= 0)
-    take = jnp.where(finished, jnp.minimum(MINERALS_PER_TRIP, units.contents[safe]), 0.0)
+    trip = jnp.where(refinery, GAS_PER_TRIP, MINERALS_PER_TRIP)
+    take = jnp.where(finished, jnp.minimum(trip, units.contents[safe]), 0.0)
     contents = units.contents.at[safe].add(-take)
 
     # Starting to mine: at the field, empty-handed, the field free; the lowest slot first.
@@ -114,12 +132,16 @@ def harvest(units: Units, touching, dist) -> tuple[Units, jnp.ndarray, jnp.ndarr
     waiting = gather & ~mining & touching & field_ok & (units.cargo == 0)
     first = jnp.full(n, n, jnp.int32).at[safe].min(jnp.where(waiting, rows, n))
     start = waiting & ~occupied[safe] & (first[safe] == rows)
-    work = jnp.where(start, MINING_LOOPS, jnp.where(finished, 0.0, work))
+    work = jnp.where(start, jnp.where(refinery, GAS_LOOPS, MINING_LOOPS),
+                     jnp.where(finished, 0.0, work))
 
     # Depositing at the Command Center.
     deposit = returning & touching & (units.cargo > 0)
     delivered = jnp.where(deposit, units.cargo, 0.0)
     cargo = jnp.where(finished, take, jnp.where(deposit, 0.0, units.cargo))
+    gas = jnp.where(finished, refinery, units.gas)
+    minerals = jnp.where(units.gas, 0.0, delivered)
+    vespene = jnp.where(units.gas, delivered, 0.0)
     home = jnp.where(finished | (gather & ~mining), target, units.home)
 
     # Next orders: carrying workers return (also when told to gather); those that
@@ -135,7 +157,7 @@ def harvest(units: Units, touching, dist) -> tuple[Units, jnp.ndarray, jnp.ndarr
     units = units.replace(
         orders=units.orders.at[:, 0].set(new_order),
         order_unit=units.order_unit.at[:, 0].set(new_target),
-        cargo=cargo, work=work, contents=contents, home=home,
+        cargo=cargo, gas=gas, work=work, contents=contents, home=home,
         # A mined-out field disappears.
         alive=units.alive & ~((units.type == UnitType.MINERAL_FIELD) & (contents <= 0)))
-    return units, delivered, lost
+    return units, minerals, vespene, lost

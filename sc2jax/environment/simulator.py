@@ -20,17 +20,16 @@ import jax.numpy as jnp
 import numpy as np
 from flax import struct
 
-from sc2jax.environment import specs
+from sc2jax.environment import score, specs
 from sc2jax.environment.actions import apply_action
 from sc2jax.environment.availability import CARD_TABLE
 from sc2jax.environment.dense import DenseAction
 from sc2jax.environment.dynamics import game_loop
 from sc2jax.environment.minigames import get_map
 from sc2jax.environment.observation import observe
-from sc2jax.environment.observation_tables import ScoreCumulative
+from sc2jax.environment.production import production_loop
 from sc2jax.environment.render import Renderer, sight_grid
-from sc2jax.environment.state import NUM_SCORE_CUMULATIVE, EnvState, Outcome, Owner
-from sc2jax.environment.units import UNIT_DATA
+from sc2jax.environment.state import NUM_SCORE_CUMULATIVE, EnvState, Outcome
 
 
 def reset_where(initial: Callable[[jax.Array], EnvState], over, key, state: EnvState):
@@ -76,6 +75,10 @@ def reset_where(initial: Callable[[jax.Array], EnvState], over, key, state: EnvS
     return select(over, key, state)
 
 
+BLIZZARD_SCORE = -2
+"""`Simulator.score_index` for rewards from the Blizzard score."""
+
+
 @struct.dataclass
 class EnvParams:
     """Per-environment parameters (vmappable).
@@ -99,7 +102,9 @@ class Simulator:
       fmt: the observation format.
       step_mul: game loops per agent step.
       score_index: the reward: the change of `score_cumulative[score_index]` (0 is the
-        mini-game score), or -1 for the outcome (+1 victory, -1 defeat, 0 tie) at the end.
+        mini-game score); `BLIZZARD_SCORE` (-2) for the change of the Blizzard score
+        (`score.blizzard_score`); or -1 for the outcome (+1 victory, -1 defeat, 0 tie)
+        at the end.
       score_multiplier: multiplies every reward.
       discount: the discount of MID steps (and of truncated LAST steps).
       allow_cheating_layers: fill the minimap `unit_type` layer.
@@ -121,9 +126,9 @@ class Simulator:
                 1 <= self.step_mul <= 10_000):
             raise ValueError(f"step_mul must be an int in [1, 10000], got {self.step_mul!r}")
         if not isinstance(self.score_index, int) or not (
-                -1 <= self.score_index < NUM_SCORE_CUMULATIVE):
-            raise ValueError(f"score_index must be -1 (win/loss) or in [0, "
-                             f"{NUM_SCORE_CUMULATIVE - 1}], got {self.score_index!r}")
+                BLIZZARD_SCORE <= self.score_index < NUM_SCORE_CUMULATIVE):
+            raise ValueError(f"score_index must be -2 (the Blizzard score), -1 (win/loss) or "
+                             f"in [0, {NUM_SCORE_CUMULATIVE - 1}], got {self.score_index!r}")
         if not 0.0 <= self.discount <= 1.0:
             raise ValueError(f"discount must be in [0, 1], got {self.discount!r}")
         object.__setattr__(self, "game", game)
@@ -204,6 +209,8 @@ class Simulator:
         return (self._score(new) - self._score(old)).astype(jnp.float32)
 
     def _score(self, state: EnvState):
+        if self.score_index == BLIZZARD_SCORE:
+            return score.blizzard_score(state)
         return state.score_cumulative.at[0].set(state.score)[self.score_index]
 
     def _initial_state(self, key) -> EnvState:
@@ -226,23 +233,27 @@ class Simulator:
     def _advance(self, state: EnvState, action: DenseAction) -> EnvState:
         state = apply_action(state, action, self.renderer, self.card_table)
         game = self.game
-        value = jnp.asarray(UNIT_DATA.mineral_cost + UNIT_DATA.vespene_cost, jnp.int32)
+        buildable = jnp.asarray(game.geometry.buildable)
 
         def one_loop(state: EnvState, _):
             running = state.outcome == Outcome.RUNNING
             key, loop_key = jax.random.split(state.key)
             units, events = game_loop(state.units, loop_key, game.geometry.playable,
                                       bursts=game.has_bursts, workers=game.has_workers)
-            enemy_died = events.died & (state.units.owner == Owner.ENEMY)
-            killed_value = jnp.sum(jnp.where(enemy_died, value[state.units.type], 0))
+            minerals = state.minerals + events.minerals.astype(jnp.int32)
+            next_tag, spent = state.next_tag, jnp.int32(0)
+            if game.has_production:
+                economy = production_loop(units, minerals, next_tag, buildable)
+                units, minerals, next_tag = economy.units, economy.minerals, economy.next_tag
+                spent = economy.spent
+                events = events._replace(created=economy.created)
             vital = state.score_by_vital.at[0, 0].add(events.damage_dealt).at[1, 0].add(
                 events.damage_taken)
-            mined = events.minerals.astype(jnp.int32)
-            cumulative = state.score_cumulative.at[ScoreCumulative.killed_value_units].add(
-                killed_value).at[ScoreCumulative.collected_minerals].add(mined)
             new = state.replace(units=units, key=key, game_loop=state.game_loop + 1,
-                                score_by_vital=vital, score_cumulative=cumulative,
-                                minerals=state.minerals + mined)
+                                score_by_vital=vital, minerals=minerals, next_tag=next_tag,
+                                vespene=state.vespene + events.vespene.astype(jnp.int32))
+            new = score.after_loop(new, state.units, events.died, events.minerals,
+                                   events.vespene, spent)
             new = game.on_loop(new, events)
             timer = (new.game_loop >= game.time_limit_loops) & (new.outcome == Outcome.RUNNING)
             new = new.replace(outcome=jnp.where(timer, int(Outcome.VICTORY), new.outcome))
@@ -252,12 +263,7 @@ class Simulator:
 
         state, _ = jax.lax.scan(one_loop, state, None, length=self.step_mul)
         state = game.on_step(state)
-        own = state.units.alive & (state.units.owner == Owner.SELF)
-        unit_value = jnp.sum(jnp.where(own, value[state.units.type], 0))
-        state = state.replace(
-            episode_step=state.episode_step + 1,
-            score_cumulative=state.score_cumulative.at[ScoreCumulative.total_value_units].set(
-                unit_value))
+        state = score.after_step(state.replace(episode_step=state.episode_step + 1))
         return self._explore(state)
 
     def _explore(self, state: EnvState) -> EnvState:

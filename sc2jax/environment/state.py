@@ -119,6 +119,11 @@ class Units:
     def num_slots(self) -> int:
         return self.alive.shape[-1]
 
+    @property
+    def complete(self) -> jax.Array:
+        """bool[N]: living units whose construction is finished."""
+        return self.alive & (self.progress >= jnp.asarray(UNIT_DATA.build_time)[self.type])
+
     @classmethod
     def empty(cls, num_slots: int) -> Units:
         """Returns N empty slots."""

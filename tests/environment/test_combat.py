@@ -132,12 +132,6 @@ def _state(name, seed=0):
     return jax.jit(small_sim(name)._initial_state)(jax.random.PRNGKey(seed))
 
 
-def _events(n, died):
-    died = np.zeros(n, bool) if died is None else died
-    return LoopEvents(died=jnp.asarray(died), damage_dealt=jnp.float32(0),
-                      damage_taken=jnp.float32(0), minerals=jnp.float32(0))
-
-
 def test_initial_lineup_and_sides():
     game, init, _ = _script("DefeatRoaches")
     for seed in range(4):
@@ -180,7 +174,7 @@ def test_wave_reset_keeps_survivors_health(name, reward, fresh):
     state = state.replace(units=units.replace(alive=jnp.asarray(alive),
                                               health=jnp.asarray(health)),
                           score=jnp.int32(100))
-    new = on_loop(state, _events(n, died))
+    new = on_loop(state, LoopEvents.none(n, died))
     enemies = len(game.ENEMIES)
     assert int(new.score) == 100 + reward * enemies - 1
     assert int(new.outcome) == Outcome.RUNNING
@@ -215,12 +209,12 @@ def test_wave_reset_adds_only_what_the_slots_hold_and_defeat_comes_first():
     died = np.zeros(n, bool)
     died[MARINE_SLOTS:] = True
     full = state.replace(units=state.units.replace(alive=jnp.asarray(alive)))
-    new = on_loop(full, _events(n, died))
+    new = on_loop(full, LoopEvents.none(n, died))
     assert int(np.asarray(new.units.alive[:MARINE_SLOTS]).sum()) == MARINE_SLOTS
     # The last marine and the last roach die on the same loop: defeat, no new wave.
     dead = state.replace(units=state.units.replace(alive=jnp.zeros(n, bool)))
     died[:9] = True
-    new = on_loop(dead, _events(n, died))
+    new = on_loop(dead, LoopEvents.none(n, died))
     assert int(new.outcome) == Outcome.DEFEAT
     assert int(new.score) == 40 - 9
     assert not np.asarray(new.units.alive).any()

@@ -71,14 +71,16 @@ def _template():
 
 
 def make_units(num_slots, units_spec):
-    """Units at full health, idle, facing the default way; built in numpy so that no
-    test compiles scatter ops for it."""
+    """Units complete, at full health, idle, facing the default way, with their resources;
+    built in numpy so that no test compiles scatter ops for it."""
     units = jax.tree_util.tree_map(np.array, jax.device_get(Units.empty(num_slots)))
     for slot, unit_type, owner, xy, selected in units_spec:
         units.alive[slot], units.type[slot], units.owner[slot] = True, unit_type, owner
         units.tag[slot], units.pos[slot], units.selected[slot] = slot, xy, selected
         units.health[slot] = UNIT_DATA.max_health[unit_type]
         units.facing[slot] = DEFAULT_FACING
+        units.progress[slot] = UNIT_DATA.build_time[unit_type]
+        units.contents[slot] = UNIT_DATA.contents[unit_type]
     return jax.tree_util.tree_map(jnp.asarray, units)
 
 
@@ -728,11 +730,6 @@ def test_hold_position_fires_but_never_chases():
 
 # Mini-game rewards -------------------------------------------------------------------
 
-def no_events(num_slots):
-    return LoopEvents(died=jnp.zeros(num_slots, bool), damage_dealt=jnp.float32(0),
-                      damage_taken=jnp.float32(0), minerals=jnp.float32(0))
-
-
 def script_state(map_name, units_spec):
     """A state holding another map's units (its script reads only units, minerals,
     score and key, so the template state carries them)."""
@@ -751,20 +748,20 @@ def test_move_to_beacon_reward_and_beacon_jump():
             (0, UnitType.MARINE, Owner.SELF, marine, True),
             (1, UnitType.BEACON, Owner.NEUTRAL, (30.0, 29.249), False),
         ])
-        state = on_loop(state.replace(key=jax.random.PRNGKey(seed)), no_events(2))
+        state = on_loop(state.replace(key=jax.random.PRNGKey(seed)), LoopEvents.none(2))
         assert int(state.score) == 1
         beacon = pos(state, 1)
         assert np.hypot(*(beacon - marine)) >= 5.0
         assert 23.5 <= beacon[0] <= 42.5 and 21.5 <= beacon[1] <= 34.5
         assert np.hypot(beacon[0] - 33.0, beacon[1] - 28.0) >= 4.0
         # The next loop the beacon is far: no more reward.
-        assert int(on_loop(state, no_events(2)).score) == 1
+        assert int(on_loop(state, LoopEvents.none(2)).score) == 1
     # 1.251 away: nothing happens.
     _, on_loop, _, state = script_state(BEACON_MAP, [
         (0, UnitType.MARINE, Owner.SELF, marine, True),
         (1, UnitType.BEACON, Owner.NEUTRAL, (31.251, 28.0), False),
     ])
-    after = on_loop(state, no_events(2))
+    after = on_loop(state, LoopEvents.none(2))
     assert int(after.score) == 0
     np.testing.assert_array_equal(after.units.pos, state.units.pos)
 
@@ -780,7 +777,7 @@ def test_collect_mineral_shards_pickup_and_respawn():
         (3, UnitType.MINERAL_SHARD, Owner.NEUTRAL, (30.0, 27.24), False),
         (4, UnitType.MINERAL_SHARD, Owner.NEUTRAL, (40.0, 24.5), False),
     ])
-    events = no_events(game.num_slots)
+    events = LoopEvents.none(game.num_slots)
     state = on_loop(state, events)
     assert np.asarray(state.units.alive[2:5]).tolist() == [False, True, False]
     assert int(state.minerals) == 200 and int(state.score) == 2

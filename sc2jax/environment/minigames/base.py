@@ -104,6 +104,11 @@ class MiniGame:
         return UnitType.SCV in self.unit_types
 
     @property
+    def has_production(self) -> bool:
+        """Whether the map has producers and builders (a Command Center)."""
+        return UnitType.COMMAND_CENTER in self.unit_types
+
+    @property
     def max_radius(self) -> float:
         """The largest radius of the map's unit types, world units."""
         return float(max(UNIT_DATA.radius[t] for t in self.unit_types))

@@ -1,0 +1,97 @@
+"""The game's score: `score_cumulative` bookkeeping and the Blizzard score.
+
+`score_cumulative` (observation_tables.ScoreCumulative) is kept in `EnvState`: index 0 is
+the map's curriculum score (`EnvState.score`); the rest follow the game's definitions:
+
+- collected_minerals / collected_vespene: resources the player's workers deposited;
+- collection_rate_minerals / _vespene: the current income per real minute at Faster speed
+  (1344 game loops), a moving average over about 10 game seconds;
+- spent_minerals / spent_vespene: paid for units and structures, less refunds;
+- total_value_units / total_value_structures: the cost of the player's living units
+  and structures (unfinished ones included);
+- killed_value_units: the cost of the enemy units killed;
+- idle_worker_time / idle_production_time: game loops summed over idle SCVs and over
+  complete producers (Command Centers, Barracks) with an empty queue.
+
+The **Blizzard score** is the paper's (§3): the resources the player has, plus the value of
+its units and structures alive or in progress (units queued for training included), plus
+upgrades researched (none on these maps).
+"""
+
+from __future__ import annotations
+
+import jax.numpy as jnp
+
+from sc2jax.environment.observation_tables import ScoreCumulative as C
+from sc2jax.environment.state import EnvState, Order, Owner, Units
+from sc2jax.environment.units import UNIT_DATA, Attribute, UnitType
+
+LOOPS_PER_RATE_MINUTE = 22.4 * 60
+"""Game loops per real minute at Faster speed: the unit of the collection rates."""
+RATE_SMOOTHING = 1.0 / 160.0
+"""The moving average's weight per loop (a time constant of 10 game seconds)."""
+
+_VALUE = jnp.asarray(UNIT_DATA.mineral_cost + UNIT_DATA.vespene_cost, jnp.int32)
+_STRUCTURE = jnp.asarray((UNIT_DATA.attributes & Attribute.STRUCTURE) > 0)
+_PRODUCER = jnp.zeros(len(UnitType), bool).at[
+    jnp.array([UnitType.COMMAND_CENTER, UnitType.BARRACKS])].set(True)
+
+
+def values(units: Units):
+    """(units, structures, queued) int32: the cost of the player's living units, of its
+    structures, and of the units in its training queues."""
+    own = units.alive & (units.owner == Owner.SELF)
+    worth = _VALUE[units.type]
+    structure = _STRUCTURE[units.type]
+    queued = jnp.sum(jnp.where(own[:, None] & (units.queue != 0), _VALUE[units.queue], 0))
+    return (jnp.sum(jnp.where(own & ~structure, worth, 0)),
+            jnp.sum(jnp.where(own & structure, worth, 0)), queued)
+
+
+def blizzard_score(state: EnvState):
+    """int32: resources plus the value of units and structures alive or in progress."""
+    unit_value, structure_value, queued = values(state.units)
+    return (state.minerals + state.vespene + unit_value + structure_value
+            + queued).astype(jnp.int32)
+
+
+def after_loop(state: EnvState, old_units: Units, died, minerals, vespene, spent):
+    """The score after one game loop.
+
+    Args:
+      state: the state after the loop (units and resources updated).
+      old_units: the units before the loop (to value the enemies that died).
+      died: bool[N] units that died in the loop.
+      minerals, vespene: float32 resources deposited in the loop.
+      spent: int32 minerals spent in the loop.
+
+    Returns:
+      The state with `score_cumulative` and `collection_rate` updated.
+    """
+    units = state.units
+    enemy_died = died & (old_units.owner == Owner.ENEMY)
+    killed = jnp.sum(jnp.where(enemy_died, _VALUE[old_units.type], 0))
+    own = units.alive & (units.owner == Owner.SELF)
+    idle_workers = jnp.sum(own & (units.type == UnitType.SCV) & (units.orders[:, 0] == Order.NONE))
+    idle_producers = jnp.sum(units.complete & own & _PRODUCER[units.type]
+                             & (units.queue[:, 0] == 0))
+    income = jnp.stack([minerals, vespene]) * LOOPS_PER_RATE_MINUTE
+    rate = state.collection_rate + (income - state.collection_rate) * RATE_SMOOTHING
+    cumulative = (state.score_cumulative
+                  .at[C.killed_value_units].add(killed)
+                  .at[C.collected_minerals].add(minerals.astype(jnp.int32))
+                  .at[C.collected_vespene].add(vespene.astype(jnp.int32))
+                  .at[C.spent_minerals].add(spent)
+                  .at[C.idle_worker_time].add(idle_workers)
+                  .at[C.idle_production_time].add(idle_producers)
+                  .at[C.collection_rate_minerals].set(jnp.round(rate[0]).astype(jnp.int32))
+                  .at[C.collection_rate_vespene].set(jnp.round(rate[1]).astype(jnp.int32)))
+    return state.replace(score_cumulative=cumulative, collection_rate=rate)
+
+
+def after_step(state: EnvState) -> EnvState:
+    """Sets the unit and structure values at the end of an agent step."""
+    unit_value, structure_value, _ = values(state.units)
+    return state.replace(score_cumulative=state.score_cumulative
+                         .at[C.total_value_units].set(unit_value)
+                         .at[C.total_value_structures].set(structure_value))
