@@ -16,15 +16,16 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from sc2jax.environment import commands, ui
+from sc2jax.environment import commands, production, ui
 from sc2jax.environment.availability import CARD_TABLE, available_actions
 from sc2jax.environment.dense import DenseAction
 from sc2jax.environment.functions import FUNCTIONS, NUM_FUNCTIONS, FunctionType
 from sc2jax.environment.geometry import clamp_camera
+from sc2jax.environment.observation_tables import ScoreCumulative
 from sc2jax.environment.protocol_enums import ActionResult
 from sc2jax.environment.render import Renderer, pick_unit
 from sc2jax.environment.state import NO_TARGET, EnvState, Order, Owner
-from sc2jax.environment.units import UNIT_DATA
+from sc2jax.environment.units import UNIT_DATA, UnitType
 
 
 class Kind(enum.IntEnum):
@@ -46,6 +47,13 @@ class Kind(enum.IntEnum):
     STOP = 13
     GATHER = 14
     RETURN = 15
+    BUILD = 16
+    TRAIN = 17
+    RALLY = 18
+    CANCEL = 19
+    CANCEL_LAST = 20
+    SELECT_IDLE_WORKER = 21
+    BUILD_QUEUE = 22
 
 
 _BY_NAME = {
@@ -58,7 +66,23 @@ _BY_NAME = {
     "Smart_screen": Kind.SMART, "Smart_minimap": Kind.SMART,
     "HoldPosition_quick": Kind.HOLD, "Stop_quick": Kind.STOP,
     "Harvest_Gather_screen": Kind.GATHER, "Harvest_Return_quick": Kind.RETURN,
+    "Build_SupplyDepot_screen": Kind.BUILD, "Build_Barracks_screen": Kind.BUILD,
+    "Build_Refinery_screen": Kind.BUILD, "Build_CommandCenter_screen": Kind.BUILD,
+    "Train_SCV_quick": Kind.TRAIN, "Train_Marine_quick": Kind.TRAIN,
+    "Rally_Workers_screen": Kind.RALLY, "Rally_Workers_minimap": Kind.RALLY,
+    "Rally_Units_screen": Kind.RALLY, "Rally_Units_minimap": Kind.RALLY,
+    "Cancel_quick": Kind.CANCEL, "Cancel_Last_quick": Kind.CANCEL_LAST,
+    "select_idle_worker": Kind.SELECT_IDLE_WORKER, "build_queue": Kind.BUILD_QUEUE,
 }
+
+# The unit type a Build_* or Train_* function makes.
+_MAKES = {"Build_SupplyDepot_screen": UnitType.SUPPLY_DEPOT,
+          "Build_Barracks_screen": UnitType.BARRACKS, "Build_Refinery_screen": UnitType.REFINERY,
+          "Build_CommandCenter_screen": UnitType.COMMAND_CENTER,
+          "Train_SCV_quick": UnitType.SCV, "Train_Marine_quick": UnitType.MARINE}
+MAKES_TABLE = np.zeros(NUM_FUNCTIONS, np.int32)
+for _name, _type in _MAKES.items():
+    MAKES_TABLE[FUNCTIONS[_name].id] = _type
 
 KIND_TABLE = np.zeros(NUM_FUNCTIONS, np.int32)
 for _name, _kind in _BY_NAME.items():
@@ -93,17 +117,30 @@ class _Context:
             jnp.asarray(IS_MINIMAP)[action.function], False,
             (self.picked >= 0) & (units.owner[jnp.maximum(self.picked, 0)] == Owner.ENEMY))
         self.minimap_point = minimap_point
-        # A mineral field (or geyser) under a screen click, for gathering.
-        self.resource_under = jnp.where(
-            jnp.asarray(IS_MINIMAP)[action.function], False,
-            (self.picked >= 0) & (units.contents[jnp.maximum(self.picked, 0)] > 0))
+        # A mineral field or the player's Refinery under a screen click, for gathering;
+        # the player's unfinished structure, for resuming its construction.
+        safe = jnp.maximum(self.picked, 0)
+        on_screen_click = ~jnp.asarray(IS_MINIMAP)[action.function] & (self.picked >= 0)
+        picked_type = units.type[safe]
+        own = units.owner[safe] == Owner.SELF
+        self.resource_under = on_screen_click & (units.contents[safe] > 0) & (
+            (picked_type == UnitType.MINERAL_FIELD) | ((picked_type == UnitType.REFINERY) & own
+                                                       & units.complete[safe]))
+        self.unfinished_under = on_screen_click & own & units.alive[safe] & ~units.complete[safe]
+        self.unit_under = jnp.where(on_screen_click, self.picked, NO_TARGET)
 
 
 def apply_action(state: EnvState, action: DenseAction, renderer: Renderer,
-                 card_table=CARD_TABLE) -> EnvState:
-    """Applies one (unbatched) dense action and records `last_action`/`action_result`."""
+                 card_table=CARD_TABLE, economy: bool = False) -> EnvState:
+    """Applies one (unbatched) dense action and records `last_action`/`action_result`.
+
+    Each kind's branch returns (units, camera, result, minerals, next_tag), where result
+    is 0 or the `ActionResult` of its failure. `economy` (static) compiles the branches
+    of production (building, training, rallies, cancels, idle workers); maps without it
+    cannot make these functions available.
+    """
     function = jnp.clip(action.function, 0, NUM_FUNCTIONS - 1)
-    available = available_actions(state.units, card_table=card_table)[function]
+    available = available_actions(state.units, card_table)[function]
     ctx = _Context(state, action, renderer)
     units = state.units
     a = action
@@ -113,26 +150,56 @@ def apply_action(state: EnvState, action: DenseAction, renderer: Renderer,
         kind = jnp.where(ctx.enemy_under, Order.ATTACK_UNIT, order)
         return commands.issue(units, kind, a.queued, ctx.point, target)
 
+    minerals, next_tag = state.minerals, state.next_tag
+    makes = jnp.asarray(MAKES_TABLE)[function]
+
     def keep_camera(result):
         new_units, ok = result
-        return new_units, state.camera, ok
+        return (new_units, state.camera, jnp.where(ok, 0, int(ActionResult.Error)), minerals,
+                next_tag)
+
+    def paid(new_units, result, new_minerals=minerals, new_tag=next_tag):
+        return new_units, state.camera, result, new_minerals, new_tag
 
     def gather():
         return commands.issue(units, Order.GATHER, a.queued, ctx.point, ctx.picked)
 
     def smart():
-        # On a mineral field, workers gather and the others move to it.
+        # On a resource, workers gather; on an unfinished structure, SCVs resume its
+        # construction; producers rally; the others move (or attack an enemy).
         moved, moved_ok = attack_or(Order.MOVE)
-        gathered, gathered_ok = commands.issue(moved, Order.GATHER, a.queued, ctx.point,
-                                               ctx.picked)
-        take = ctx.resource_under
-        return (jax.tree_util.tree_map(lambda x, y: jnp.where(take, x, y), gathered, moved),
-                moved_ok | (take & gathered_ok))
+        worked, worked_ok = commands.issue(
+            moved, jnp.where(ctx.resource_under, Order.GATHER, Order.CONSTRUCT), a.queued,
+            ctx.point, ctx.picked)
+        take = ctx.resource_under | ctx.unfinished_under
+        smart_units = jax.tree_util.tree_map(lambda x, y: jnp.where(take, x, y), worked, moved)
+        rallied, rallied_ok = production.set_rally(smart_units, ctx.point, ctx.unit_under)
+        return rallied, moved_ok | (take & worked_ok) | rallied_ok
+
+    def build():
+        new_units, result = production.order_build(
+            units, minerals, jnp.asarray(renderer.geometry.buildable), makes, ctx.point,
+            ctx.picked, a.queued)
+        return paid(new_units, result)
+
+    def train():
+        new_units, new_minerals, result = production.enqueue(units, minerals, makes)
+        return paid(new_units, result, new_minerals)
+
+    def cancel():
+        new_units, new_minerals, new_tag, result = production.cancel_construction(
+            units, minerals, next_tag)
+        return paid(new_units, result, new_minerals, new_tag)
+
+    def cancel_queued(index):
+        new_units, new_minerals, result = production.cancel_queued(units, minerals, index)
+        return paid(new_units, result, new_minerals)
 
     branches = [
-        lambda: (units, state.camera, jnp.bool_(False)),  # UNSUPPORTED
-        lambda: (units, state.camera, jnp.bool_(True)),  # NOOP
-        lambda: (units, clamp_camera(renderer.geometry, ctx.minimap_point), jnp.bool_(True)),
+        lambda: keep_camera((units, jnp.bool_(False))),  # UNSUPPORTED
+        lambda: keep_camera((units, jnp.bool_(True))),  # NOOP
+        lambda: (units, clamp_camera(renderer.geometry, ctx.minimap_point), jnp.int32(0),
+                 minerals, next_tag),
         lambda: keep_camera(ui.select_point(units, ctx.on_screen, ctx.picked,
                                             a.select_point_act)),
         lambda: keep_camera(ui.select_rect(units, ctx.pixel_pos, ctx.pixel_radius,
@@ -149,13 +216,26 @@ def apply_action(state: EnvState, action: DenseAction, renderer: Renderer,
         lambda: keep_camera(jax.lax.cond(ctx.resource_under, gather,
                                          lambda: (units, jnp.bool_(False)))),
         lambda: keep_camera(commands.issue(units, Order.RETURN, a.queued, ctx.point)),
+        build,
+        train,
+        lambda: keep_camera(production.set_rally(units, ctx.point, ctx.unit_under)),
+        cancel,
+        lambda: cancel_queued(None),
+        lambda: keep_camera(ui.select_idle_worker(units, a.select_worker)),
+        lambda: cancel_queued(a.build_queue_id),
     ]
+    if not economy:
+        branches = branches[:Kind.BUILD]
     kind = jnp.where(available, jnp.asarray(KIND_TABLE)[function], Kind.UNSUPPORTED)
-    new_units, camera, ok = jax.lax.switch(kind, [lambda _, b=b: b() for b in branches], None)
+    kind = jnp.where(kind < len(branches), kind, Kind.UNSUPPORTED)
+    new_units, camera, result, new_minerals, new_tag = jax.lax.switch(
+        kind, [lambda _, b=b: b() for b in branches], None)
+    ok = result == 0
     executed = available & ok & (function != FUNCTIONS.no_op.id)
-    result = jnp.where(available, jnp.where(ok, 0, int(ActionResult.Error)),
-                       int(ActionResult.NotSupported))
+    result = jnp.where(available, result, int(ActionResult.NotSupported))
+    spent = state.minerals - new_minerals
     return state.replace(
-        units=new_units, camera=camera,
+        units=new_units, camera=camera, minerals=new_minerals, next_tag=new_tag,
+        score_cumulative=state.score_cumulative.at[ScoreCumulative.spent_minerals].add(spent),
         last_action=jnp.where(executed, function, -1).astype(jnp.int32),
         action_result=jnp.where(function == FUNCTIONS.no_op.id, 0, result).astype(jnp.int32))

@@ -10,6 +10,7 @@ from __future__ import annotations
 import jax.numpy as jnp
 import numpy as np
 
+from sc2jax.environment import production
 from sc2jax.environment.functions import FUNCTIONS, NUM_FUNCTIONS
 from sc2jax.environment.state import Owner, Units
 from sc2jax.environment.units import UNIT_DATA, UnitType
@@ -20,27 +21,42 @@ COMBAT_CARD = ("Attack_screen", "Attack_minimap", "HoldPosition_quick", "Move_sc
                "Move_minimap", "Patrol_screen", "Patrol_minimap", "Smart_screen",
                "Smart_minimap", "Stop_quick")
 
+SCV_CARD = COMBAT_CARD + ("Harvest_Gather_screen", "Harvest_Return_quick",
+                          "Build_SupplyDepot_screen", "Build_Barracks_screen",
+                          "Build_Refinery_screen", "Build_CommandCenter_screen")
+
 COMMAND_CARDS: dict[UnitType, tuple[str, ...]] = {
     UnitType.MARINE: COMBAT_CARD,
     UnitType.ZERGLING: COMBAT_CARD,
     UnitType.ROACH: COMBAT_CARD,
     UnitType.BANELING: COMBAT_CARD,
-    UnitType.SCV: COMBAT_CARD + ("Harvest_Gather_screen",),
+    UnitType.SCV: SCV_CARD,
+    UnitType.COMMAND_CENTER: ("Train_SCV_quick", "Rally_Workers_screen", "Rally_Workers_minimap",
+                              "Smart_screen", "Smart_minimap", "Cancel_Last_quick"),
+    UnitType.BARRACKS: ("Train_Marine_quick", "Rally_Units_screen", "Rally_Units_minimap",
+                        "Smart_screen", "Smart_minimap", "Cancel_Last_quick"),
 }
-"""Each unit type's command card, as general function names."""
+"""Each unit type's command card, as general function names. Some buttons show only
+when they apply (`available_actions`): Return Cargo while carrying, Cancel Last while
+training, Build Barracks with a complete Supply Depot."""
+
+CONSTRUCTION_CARD = ("Cancel_quick",)
+"""The card of an unfinished structure."""
 
 
-def _card_table() -> np.ndarray:
+def card_table(cards: dict[UnitType, tuple[str, ...]]) -> np.ndarray:
+    """bool[num_unit_types, num_functions] from command cards (function names)."""
     table = np.zeros((len(UnitType), NUM_FUNCTIONS), bool)
-    for unit_type, names in COMMAND_CARDS.items():
+    for unit_type, names in cards.items():
         for name in names:
             table[unit_type, FUNCTIONS[name].id] = True
     return table
 
 
-CARD_TABLE = _card_table()
+CARD_TABLE = card_table(COMMAND_CARDS)
 """bool[num_unit_types, num_functions]."""
 
+_CONSTRUCTION_MASK = card_table({UnitType.NONE: CONSTRUCTION_CARD})[UnitType.NONE]
 _ALWAYS_MASK = np.zeros(NUM_FUNCTIONS, bool)
 _ALWAYS_MASK[[FUNCTIONS[name].id for name in ALWAYS]] = True
 
@@ -50,22 +66,36 @@ def army_count(units: Units):
     return jnp.sum(own & jnp.asarray(UNIT_DATA.is_army)[units.type]).astype(jnp.int32)
 
 
-def available_actions(units: Units, idle_workers=0, card_table=CARD_TABLE):
+def idle_worker_count(units: Units):
+    """int32: the player's idle SCVs."""
+    return jnp.sum(units.idle_workers).astype(jnp.int32)
+
+
+def available_actions(units: Units, card_table=CARD_TABLE):
     """bool[num_functions]: the functions the player may call.
 
     Args:
       units: the units.
-      idle_workers: int32 number of idle workers (for `select_idle_worker`).
       card_table: the command cards in use (maps may restrict them).
     """
     own_selected = units.selected & units.alive & (units.owner == Owner.SELF)
-    cards = jnp.asarray(card_table)[units.type]
+    cards = jnp.where(units.complete[:, None], jnp.asarray(card_table)[units.type],
+                      jnp.asarray(_CONSTRUCTION_MASK))
     mask = jnp.any(cards & own_selected[:, None], axis=0) | jnp.asarray(_ALWAYS_MASK)
-    multi = jnp.sum(units.selected & units.alive) > 1
-    mask = mask.at[FUNCTIONS.select_unit.id].set(multi)
+    count = jnp.sum(units.selected & units.alive)
+    mask = mask.at[FUNCTIONS.select_unit.id].set(count > 1)
     mask = mask.at[FUNCTIONS.select_army.id].set(army_count(units) > 0)
-    mask = mask.at[FUNCTIONS.select_idle_worker.id].set(idle_workers > 0)
-    # Return Cargo is on the card of a worker that carries something.
+    mask = mask.at[FUNCTIONS.select_idle_worker.id].set(idle_worker_count(units) > 0)
+    # Buttons that show only when they apply.
     carrying = own_selected & (units.type == UnitType.SCV) & (units.cargo > 0)
-    mask = mask.at[FUNCTIONS.Harvest_Return_quick.id].set(carrying.any())
+    queue = units.queue[:, 0] != 0
+    training = own_selected & units.complete & queue
+    depot = production.has_structure(units, UnitType.SUPPLY_DEPOT)
+    only_if = {"Harvest_Return_quick": carrying.any(), "Cancel_Last_quick": training.any(),
+               "Build_Barracks_screen": depot,
+               # The production panel: a single selected unit that is training.
+               "build_queue": (count == 1) & training.any()}
+    for name, condition in only_if.items():
+        fid = FUNCTIONS[name].id
+        mask = mask.at[fid].set(mask[fid] & condition)
     return mask

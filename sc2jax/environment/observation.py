@@ -3,10 +3,17 @@
 from __future__ import annotations
 
 import jax.numpy as jnp
+import numpy as np
 
 from sc2jax.environment import observation_tables as tables
-from sc2jax.environment import specs
-from sc2jax.environment.availability import CARD_TABLE, army_count, available_actions
+from sc2jax.environment import production, specs
+from sc2jax.environment.availability import (
+    CARD_TABLE,
+    army_count,
+    available_actions,
+    idle_worker_count,
+)
+from sc2jax.environment.functions import FUNCTIONS
 from sc2jax.environment.render import Renderer, player_relative, ratio_255
 from sc2jax.environment.state import EnvState, Order, Owner, Units
 from sc2jax.environment.ui import NUM_GROUPS, selection_order
@@ -14,9 +21,24 @@ from sc2jax.environment.units import UNIT_DATA, UnitType
 
 TERRAN = 1  # sc2api.proto Race.
 
+# The Train ability each trained unit type is queued with (`production_queue`).
+_TRAIN_ABILITY = np.zeros(len(UnitType), np.int32)
+for _unit, _function in ((UnitType.SCV, "Train_SCV_quick"),
+                         (UnitType.MARINE, "Train_Marine_quick")):
+    _TRAIN_ABILITY[_unit] = FUNCTIONS[_function].ability_id
+
+
+def build_percent(units: Units):
+    """int32[N]: construction progress in percent (100 for complete units)."""
+    build_time = jnp.asarray(UNIT_DATA.build_time)[units.type]
+    done = jnp.where(build_time > 0, units.progress / jnp.maximum(build_time, 1.0), 1.0)
+    return jnp.floor(jnp.minimum(done, 1.0) * 100).astype(jnp.int32)
+
 
 def unit_vectors(units: Units):
-    """int32[N, 7]: each slot's `UnitLayer` vector (as the UI panels show it)."""
+    """int32[N, 7]: each slot's `UnitLayer` vector (as the UI panels show it; the build
+    progress is non-zero for unfinished structures only)."""
+    progress = jnp.where(units.complete, 0, build_percent(units))
     return jnp.stack([
         jnp.asarray(UNIT_DATA.sc2_id)[units.type],
         player_relative(units.owner),
@@ -24,13 +46,36 @@ def unit_vectors(units: Units):
         units.shields.astype(jnp.int32),
         units.energy.astype(jnp.int32),
         jnp.zeros_like(units.type),
-        jnp.zeros_like(units.type),
+        progress,
     ], axis=-1).astype(jnp.int32)
 
 
-def idle_worker_count(units: Units):
-    own_scv = units.alive & (units.owner == Owner.SELF) & (units.type == UnitType.SCV)
-    return jnp.sum(own_scv & (units.orders[:, 0] == Order.NONE)).astype(jnp.int32)
+def production_panel(units: Units, length: int):
+    """(build_queue int32[length, 7], production_queue int32[length, 2]): the queue of
+    the single selected unit, if it is training (the game's production panel).
+
+    A queued unit's vector is its type at full health, with the build progress of the
+    one in training; `production_queue` rows are [Train ability id, progress %].
+    """
+    selected = units.selected & units.alive
+    slot = jnp.argmax(selected)
+    shown = (jnp.sum(selected) == 1) & units.complete[slot]
+    queue = units.queue[slot]
+    in_queue = shown & (queue != 0)
+    time = jnp.asarray(UNIT_DATA.build_time)[queue]
+    first = jnp.arange(queue.shape[0]) == 0
+    percent = jnp.where(first, jnp.floor(units.queue_work[slot] / jnp.maximum(time, 1.0) * 100),
+                        0).astype(jnp.int32)
+    vectors = jnp.stack([
+        jnp.asarray(UNIT_DATA.sc2_id)[queue], jnp.full_like(queue, 1),
+        jnp.asarray(UNIT_DATA.max_health)[queue].astype(jnp.int32),
+        jnp.asarray(UNIT_DATA.max_shields)[queue].astype(jnp.int32),
+        jnp.zeros_like(queue), jnp.zeros_like(queue), percent], axis=-1)
+    ability = jnp.asarray(_TRAIN_ABILITY)[queue]
+    rows = jnp.stack([ability, percent], axis=-1)
+    pad = lambda x: jnp.zeros((length, x.shape[1]), jnp.int32).at[:x.shape[0]].set(  # noqa: E731
+        jnp.where(in_queue[:, None], x, 0)[:length])
+    return pad(vectors), pad(rows)
 
 
 def _player(state: EnvState):
@@ -38,12 +83,10 @@ def _player(state: EnvState):
     own = units.alive & (units.owner == Owner.SELF)
     food = jnp.asarray(UNIT_DATA.food)[units.type]
     army = jnp.asarray(UNIT_DATA.is_army)[units.type]
-    cap = jnp.sum(jnp.where(own & (units.type == UnitType.COMMAND_CENTER), 15, 0)
-                  + jnp.where(own & (units.type == UnitType.SUPPLY_DEPOT), 8, 0))
     return jnp.stack([
         jnp.int32(Owner.SELF), state.minerals, state.vespene,
-        jnp.ceil(jnp.sum(jnp.where(own, food, 0.0))).astype(jnp.int32),
-        jnp.minimum(cap, 200).astype(jnp.int32),
+        jnp.ceil(production.food_used(units)).astype(jnp.int32),
+        production.food_cap(units),
         jnp.ceil(jnp.sum(jnp.where(own & army, food, 0.0))).astype(jnp.int32),
         jnp.sum(own & (units.type == UnitType.SCV)).astype(jnp.int32),
         idle_worker_count(units), army_count(units), jnp.int32(0), jnp.int32(0),
@@ -85,7 +128,7 @@ def feature_units(units: Units, include, pixel_pos, pixel_radius, on_screen, len
         "health": jnp.ceil(units.health).astype(jnp.int32),
         "shield": units.shields.astype(jnp.int32),
         "energy": units.energy.astype(jnp.int32),
-        "build_progress": jnp.full(n, 100),
+        "build_progress": build_percent(units),
         "health_ratio": ratio_255(units.health, jnp.asarray(d.max_health)[t]),
         "shield_ratio": ratio_255(units.shields, jnp.asarray(d.max_shields)[t]),
         "energy_ratio": ratio_255(units.energy, jnp.asarray(d.max_energy)[t]),
@@ -124,7 +167,7 @@ def observe(state: EnvState, renderer: Renderer, card_table=CARD_TABLE) -> dict:
     action_result = jnp.zeros((specs.MAX_LAST_ACTIONS,), jnp.int32).at[0].set(
         state.action_result)
     score_cumulative = state.score_cumulative.at[0].set(state.score)
-    idle = idle_worker_count(units)
+    build_queue, production_queue = production_panel(units, specs.MAX_BUILD_QUEUE)
     obs = {
         "feature_screen": renderer.screen(state),
         "feature_minimap": renderer.minimap_layers(state),
@@ -136,9 +179,8 @@ def observe(state: EnvState, renderer: Renderer, card_table=CARD_TABLE) -> dict:
         "score_by_vital": state.score_by_vital.astype(jnp.int32),
         "single_select": single.astype(jnp.int32),
         "multi_select": multi.astype(jnp.int32),
-        "build_queue": jnp.zeros((specs.MAX_BUILD_QUEUE, len(tables.UnitLayer)), jnp.int32),
-        "production_queue": jnp.zeros((specs.MAX_BUILD_QUEUE, len(tables.ProductionQueue)),
-                                      jnp.int32),
+        "build_queue": build_queue,
+        "production_queue": production_queue,
         "cargo": jnp.zeros((specs.MAX_CARGO, len(tables.UnitLayer)), jnp.int32),
         "cargo_slots_available": jnp.zeros((1,), jnp.int32),
         "control_groups": _control_groups(units),
@@ -148,7 +190,7 @@ def observe(state: EnvState, renderer: Renderer, card_table=CARD_TABLE) -> dict:
         "upgrades": jnp.zeros((specs.MAX_UPGRADES,), jnp.int32),
         "home_race_requested": jnp.array([TERRAN], jnp.int32),
         "away_race_requested": jnp.zeros((1,), jnp.int32),
-        "available_actions": available_actions(units, idle, card_table),
+        "available_actions": available_actions(units, card_table),
     }
     if fmt.use_feature_units or fmt.use_raw_units:
         shown = renderer.units_shown(state)

@@ -33,6 +33,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
+from sc2jax.environment import commands
 from sc2jax.environment.dynamics import pop_order
 from sc2jax.environment.protocol_enums import ActionResult
 from sc2jax.environment.state import BUILD_QUEUE, NO_TARGET, Order, Owner, Units, place
@@ -217,6 +218,58 @@ def enqueue(units: Units, minerals, unit_type):
     at = ok & (jnp.arange(units.num_slots)[:, None] == slot) & (q[None, :] == length[slot])
     units = units.replace(queue=jnp.where(at, unit_type, units.queue))
     return units, minerals - jnp.where(ok, _column("mineral_cost", unit_type), 0), result
+
+
+def order_build(units: Units, minerals, buildable, unit_type, point, picked, queued):
+    """`Build_*`: the selected SCV nearest the site is ordered to build `unit_type` there.
+
+    The site is `point` snapped to the grid, or for a Refinery the geyser `picked` (the
+    slot under the click). Cost, placement and tech are checked now, and again when the
+    SCV arrives.
+
+    Args:
+      units: the units.
+      minerals: int32 the player's minerals.
+      buildable: bool[H, W] the map's buildable cells.
+      unit_type: int32 the structure.
+      point: float32[2] the clicked world point.
+      picked: int32 the slot drawn at the click, or -1.
+      queued: int32 0 (now) or 1 (queued).
+
+    Returns:
+      (units, result int32 `ActionResult`).
+    """
+    n = units.num_slots
+    refinery = unit_type == UnitType.REFINERY
+    site = jnp.where(refinery, units.pos[jnp.clip(picked, 0, n - 1)], snap(unit_type, point))
+    target = jnp.where(refinery, picked, NO_TARGET)
+    builders = units.selected & _own(units) & (units.type == UnitType.SCV)
+    distance = jnp.sum((units.pos - site) ** 2, axis=-1)
+    builder = jnp.argmin(jnp.where(builders, distance, jnp.inf))
+    placed = placement(units, buildable, unit_type, site, target)
+    result = jnp.where(~builders.any(), int(ActionResult.Error), jnp.where(
+        ~tech_ok(units, unit_type), int(ActionResult.TechRequirementsNotMet),
+        jnp.where(affordable(minerals, unit_type) != 0, int(ActionResult.NotEnoughMinerals),
+                  placed))).astype(jnp.int32)
+    one = units.replace(selected=jnp.arange(n) == builder)
+    ordered, _ = commands.issue(one, Order.BUILD, queued, site, target, unit_type)
+    ordered = ordered.replace(selected=units.selected)
+    return jax.tree_util.tree_map(lambda a, b: jnp.where(result == 0, a, b), ordered,
+                                  units), result
+
+
+def set_rally(units: Units, point, picked):
+    """`Rally_*` (and `Smart` for producers): the selected producers rally to `point`,
+    or to the resource or unit `picked` (int32 slot, or -1).
+
+    Returns:
+      (units, ok bool).
+    """
+    producers = units.selected & _own(units) & (trained_type(units) != 0)
+    return units.replace(
+        rally=jnp.where(producers[:, None], point, units.rally),
+        rally_unit=jnp.where(producers, picked, units.rally_unit),
+        rallied=units.rallied | producers), producers.any()
 
 
 def _remove_queued(units: Units, producer, index):

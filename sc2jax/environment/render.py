@@ -43,6 +43,7 @@ PACKING = {
     "unit_energy_ratio": (1, 23, 8),
     "unit_shields": (2, 0, 11),
     "unit_shields_ratio": (2, 11, 8),
+    "build_progress": (2, 19, 8),
 }
 """Per-unit layer -> (word, bit shift, bits): how `Renderer` packs per-unit values.
 Values beyond a field's bits are clipped (hit points at 8191, energy at 1023, shields at
@@ -375,4 +376,7 @@ class Renderer:
             "unit_energy_ratio": lambda: ratio_255(units.energy, jnp.asarray(d.max_energy)[t]),
             "unit_shields": lambda: units.shields.astype(jnp.int32),
             "unit_shields_ratio": lambda: ratio_255(units.shields, jnp.asarray(d.max_shields)[t]),
+            # Unfinished structures' progress (0..255); 0 for complete units.
+            "build_progress": lambda: jnp.where(
+                units.complete, 0, ratio_255(units.progress, jnp.asarray(d.build_time)[t])),
         }

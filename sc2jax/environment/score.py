@@ -23,7 +23,7 @@ from __future__ import annotations
 import jax.numpy as jnp
 
 from sc2jax.environment.observation_tables import ScoreCumulative as C
-from sc2jax.environment.state import EnvState, Order, Owner, Units
+from sc2jax.environment.state import EnvState, Owner, Units
 from sc2jax.environment.units import UNIT_DATA, Attribute, UnitType
 
 LOOPS_PER_RATE_MINUTE = 22.4 * 60
@@ -72,7 +72,7 @@ def after_loop(state: EnvState, old_units: Units, died, minerals, vespene, spent
     enemy_died = died & (old_units.owner == Owner.ENEMY)
     killed = jnp.sum(jnp.where(enemy_died, _VALUE[old_units.type], 0))
     own = units.alive & (units.owner == Owner.SELF)
-    idle_workers = jnp.sum(own & (units.type == UnitType.SCV) & (units.orders[:, 0] == Order.NONE))
+    idle_workers = jnp.sum(units.idle_workers)
     idle_producers = jnp.sum(units.complete & own & _PRODUCER[units.type]
                              & (units.queue[:, 0] == 0))
     income = jnp.stack([minerals, vespene]) * LOOPS_PER_RATE_MINUTE

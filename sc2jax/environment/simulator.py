@@ -231,7 +231,8 @@ class Simulator:
         return self._explore(state)
 
     def _advance(self, state: EnvState, action: DenseAction) -> EnvState:
-        state = apply_action(state, action, self.renderer, self.card_table)
+        state = apply_action(state, action, self.renderer, self.card_table,
+                             economy=self.game.has_production)
         game = self.game
         buildable = jnp.asarray(game.geometry.buildable)
 

@@ -15,7 +15,7 @@ import jax.numpy as jnp
 from flax import struct
 
 from sc2jax.environment import observation_tables as tables
-from sc2jax.environment.units import UNIT_DATA
+from sc2jax.environment.units import UNIT_DATA, UnitType
 
 # Facing of units created with the editor's default facing (270 degrees).
 DEFAULT_FACING = -math.pi / 2
@@ -123,6 +123,12 @@ class Units:
     def complete(self) -> jax.Array:
         """bool[N]: living units whose construction is finished."""
         return self.alive & (self.progress >= jnp.asarray(UNIT_DATA.build_time)[self.type])
+
+    @property
+    def idle_workers(self) -> jax.Array:
+        """bool[N]: the player's SCVs without orders."""
+        return (self.alive & (self.owner == Owner.SELF) & (self.type == UnitType.SCV)
+                & (self.orders[:, 0] == Order.NONE))
 
     @classmethod
     def empty(cls, num_slots: int) -> Units:

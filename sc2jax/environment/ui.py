@@ -123,3 +123,19 @@ def control_group(units: Units, act, group_id):
     selected = jnp.where(recall & ok, members, units.selected)
     new_groups = jnp.where(ok, groups[act], units.groups)
     return units.replace(selected=selected, groups=new_groups), ok
+
+
+def select_idle_worker(units: Units, act):
+    """`select_idle_worker`: select (or add) the next idle SCV after the selected ones
+    (cycling), or all idle SCVs (`SelectWorker`: select, add, select_all, add_all)."""
+    n = units.num_slots
+    idle = units.idle_workers
+    rows = jnp.arange(n)
+    last = jnp.max(jnp.where(units.selected & idle, rows, -1))
+    after = idle & (rows > last)
+    chosen = jnp.argmax(jnp.where(after.any(), after, idle))
+    one = idle & (rows == chosen)
+    act = jnp.clip(act, 0, len(args_lib.SelectWorker) - 1)
+    own_selected = units.selected & (units.owner == Owner.SELF)
+    choices = jnp.stack([one, own_selected | one, idle, own_selected | idle])
+    return units.replace(selected=choices[act] & units.alive), idle.any()

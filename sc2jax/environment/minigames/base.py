@@ -91,6 +91,8 @@ class MiniGame:
             out += ["unit_energy", "unit_energy_ratio"]
         if all(UNIT_DATA.max_shields[t] == 0 for t in self.unit_types):
             out += ["unit_shields", "unit_shields_ratio"]
+        if not self.has_production:  # Nothing is ever under construction.
+            out += ["build_progress"]
         return tuple(out)
 
     @property
