@@ -7,9 +7,10 @@ The game's cycle (reference/pysc2_facts.md §7), run once per game loop by
 - touching it (edge to edge within `REACH`), and if no other worker is mining it, it
   mines for 2.786 game seconds (`MINING_LOOPS`), then takes 5 minerals from the field
   (fewer if fewer are left) and turns to RETURN them to the nearest own Command Center;
-  a worker that finds its field taken waits beside it;
 - touching the Command Center deposits the cargo, and the worker goes back to GATHER
   from the same field;
+- a worker that finds its field taken waits, or moves on to a nearby field with fewer
+  workers (`_spread`);
 - a worker told to gather while it carries minerals returns them first;
 - a field mined out disappears, and the workers on it go idle;
 - gas the same way from the player's complete Refinery: 4 per trip after 1.981 game
@@ -36,6 +37,8 @@ MINERALS_PER_TRIP = 5.0
 GAS_LOOPS = 1.981 * LOOPS_PER_SECOND
 """Loops a worker harvests inside a Refinery for (1.981 game seconds: 32 whole loops)."""
 GAS_PER_TRIP = 4.0
+SPREAD_RADIUS = 8.0
+"""How far a worker whose mineral field is taken looks for another one (world units)."""
 
 
 def harvesting(units: Units):
@@ -92,6 +95,35 @@ def resolve_returns(units: Units, dist) -> Units:
         jnp.where(unset, nearest_depot(units, dist), units.order_unit[:, 0])))
 
 
+def _spread(units: Units, field, blocked, dist, contents):
+    """int32[N]: where workers that find their mineral field taken go next.
+
+    One such worker per field a loop moves on to the nearby field (within
+    `SPREAD_RADIUS`) with the fewest gatherers, nearest first, if that has at least two
+    fewer than its own; the others keep waiting. This spreads workers over a mineral line
+    as the game's do.
+
+    Args:
+      units: the units.
+      field: int32[N] each worker's field (valid where `blocked`).
+      blocked: bool[N] gatherers touching a taken field.
+      dist: float32[N, N] centre distances.
+      contents: float32[N] the resources left.
+    """
+    n = units.num_slots
+    rows = jnp.arange(n)
+    gathering = units.alive & (units.orders[:, 0] == Order.GATHER)
+    assigned = jnp.zeros(n, jnp.int32).at[jnp.clip(units.order_unit[:, 0], 0, n - 1)].add(
+        gathering.astype(jnp.int32))
+    fields = units.alive & (units.type == UnitType.MINERAL_FIELD) & (contents > 0)
+    near = fields[None, :] & (dist[field] <= SPREAD_RADIUS)
+    cost = jnp.where(near, assigned[None, :] * 1000.0 + dist[field], jnp.inf)
+    best = jnp.argmin(cost, axis=1).astype(jnp.int32)
+    first = jnp.full(n, n, jnp.int32).at[field].min(jnp.where(blocked, rows, n))
+    moves = blocked & (first[field] == rows) & (assigned[best] < assigned[field] - 1)
+    return jnp.where(moves, best, field)
+
+
 def harvest(units: Units, touching, dist) -> tuple[Units, jnp.ndarray, jnp.ndarray,
                                                    jnp.ndarray]:
     """One loop of the harvest cycle, after the loop's movement.
@@ -134,6 +166,9 @@ def harvest(units: Units, touching, dist) -> tuple[Units, jnp.ndarray, jnp.ndarr
     start = waiting & ~occupied[safe] & (first[safe] == rows)
     work = jnp.where(start, jnp.where(refinery, GAS_LOOPS, MINING_LOOPS),
                      jnp.where(finished, 0.0, work))
+    target = jnp.where(waiting & ~start & ~refinery,
+                       _spread(units, safe, waiting & ~start & ~refinery, dist, contents),
+                       target)
 
     # Depositing at the Command Center.
     deposit = returning & touching & (units.cargo > 0)

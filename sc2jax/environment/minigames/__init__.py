@@ -2,6 +2,7 @@
 
 from sc2jax.environment.minigames.base import MiniGame
 from sc2jax.environment.minigames.collect_mineral_shards import CollectMineralShards
+from sc2jax.environment.minigames.economy import BuildMarines, CollectMineralsAndGas
 from sc2jax.environment.minigames.find_and_defeat_zerglings import FindAndDefeatZerglings
 from sc2jax.environment.minigames.move_to_beacon import MoveToBeacon
 from sc2jax.environment.minigames.wave_combat import DefeatRoaches, DefeatZerglingsAndBanelings
@@ -12,6 +13,8 @@ MAPS = {
     "FindAndDefeatZerglings": FindAndDefeatZerglings,
     "DefeatRoaches": DefeatRoaches,
     "DefeatZerglingsAndBanelings": DefeatZerglingsAndBanelings,
+    "CollectMineralsAndGas": CollectMineralsAndGas,
+    "BuildMarines": BuildMarines,
 }
 
 
