@@ -34,8 +34,9 @@ def random_actor(types):
     return jax.jit(functools.partial(random_action, types=types))
 
 
-def random_episode(sim: Simulator, seed: int, steps: int):
-    """Runs `steps` random steps (auto-resetting) from a reset with `seed`.
+def random_episode(sim: Simulator, seed: int, steps: int, start_loop: int = 0):
+    """Runs `steps` random steps (auto-resetting) from a reset with `seed`, its clock
+    moved on to `start_loop` (to reach the end of a long map sooner).
 
     Returns:
       (first timestep, list of timesteps, list of actions), all as numpy.
@@ -44,6 +45,7 @@ def random_episode(sim: Simulator, seed: int, steps: int):
     act = random_actor(sim.fmt.types)
     key = jax.random.PRNGKey(seed)
     state, ts = reset(key, PARAMS)
+    state = state.replace(game_loop=np.int32(start_loop))
     first = jax.device_get(ts)
     timesteps, actions = [], []
     for _ in range(steps):

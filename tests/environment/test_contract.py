@@ -20,8 +20,10 @@ def _stack(timesteps):
 @pytest.mark.parametrize("map_name", MAP_NAMES)
 def test_episode_structure_and_specs(map_name):
     sim = small_sim(map_name)
-    length = sim.game.time_limit_loops // sim.step_mul
-    first, timesteps, _ = random_episode(sim, seed=3, steps=length + 2)
+    # Long maps start their clock within 240 steps of the end.
+    start = max(0, sim.game.time_limit_loops - 240 * sim.step_mul)
+    length = (sim.game.time_limit_loops - start) // sim.step_mul
+    first, timesteps, _ = random_episode(sim, seed=3, steps=length + 2, start_loop=start)
     step_types = np.array([int(ts.step_type) for ts in timesteps])
     assert int(first.step_type) == dm_env.StepType.FIRST
     assert float(first.discount) == 0.0 and float(first.reward) == 0.0
@@ -35,8 +37,9 @@ def test_episode_structure_and_specs(map_name):
     assert all(float(ts.discount) == 1.0 for ts in timesteps[:last])
     assert float(timesteps[last + 1].reward) == 0.0
     game_loops = [int(ts.observation["game_loop"][0]) for ts in timesteps[:last + 1]]
-    assert game_loops == [8 * (i + 1) for i in range(last + 1)]
-    if map_name in ("MoveToBeacon", "CollectMineralShards"):  # No defeat: the timer ends.
+    assert game_loops == [start + 8 * (i + 1) for i in range(last + 1)]
+    if map_name in ("MoveToBeacon", "CollectMineralShards", "CollectMineralsAndGas",
+                    "BuildMarines"):  # No defeat: the timer ends.
         assert last == length - 1
         assert game_loops[-1] == sim.game.time_limit_loops
     # Every observation conforms to the padded spec.
