@@ -175,7 +175,10 @@ def game_loop(units: Units, key, playable, bursts: bool = False,
     direction = to_goal / goal_dist[:, None]
     new_pos = pos + direction * step[:, None]
 
-    new_pos = _resolve_collisions(new_pos, alive & ~gathering, data)
+    # Working workers, and SCVs on their way to a building site, pass through other units
+    # (without path finding, a worker would stick behind structures on its way).
+    passes = gathering | (order == Order.BUILD)
+    new_pos = _resolve_collisions(new_pos, alive & ~passes, data)
     x0, y0, x1, y1 = playable
     new_pos = jnp.clip(new_pos, jnp.array([x0, y0]), jnp.array([x1, y1]))
     new_pos = jnp.where(alive[:, None], new_pos, pos)

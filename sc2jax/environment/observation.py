@@ -14,12 +14,15 @@ from sc2jax.environment.availability import (
     idle_worker_count,
 )
 from sc2jax.environment.functions import FUNCTIONS
+from sc2jax.environment.harvest import nearest_depot
 from sc2jax.environment.render import Renderer, player_relative, ratio_255
 from sc2jax.environment.state import EnvState, Order, Owner, Units
 from sc2jax.environment.ui import NUM_GROUPS, selection_order
 from sc2jax.environment.units import UNIT_DATA, UnitType
 
 TERRAN = 1  # sc2api.proto Race.
+BASE_RADIUS = 10.0
+"""Mineral fields within this distance of a Command Center belong to its base."""
 
 # The Train ability each trained unit type is queued with (`production_queue`).
 _TRAIN_ABILITY = np.zeros(len(UnitType), np.int32)
@@ -110,6 +113,35 @@ def _control_groups(units: Units):
     return jnp.stack([leader_type, count], axis=-1).astype(jnp.int32)
 
 
+def harvesters(units: Units):
+    """(assigned, ideal) int32[N] of each Command Center and Refinery of the player.
+
+    A Refinery's assigned workers are those harvesting from it, ideally 3 while it has
+    gas; a Command Center's are those harvesting mineral fields whose nearest Command
+    Center it is, ideally 2 per mineral field within `BASE_RADIUS`.
+    """
+    n = units.num_slots
+    own = units.alive & (units.owner == Owner.SELF)
+    order = units.orders[:, 0]
+    worker = own & ((order == Order.GATHER) | (order == Order.RETURN)) & (units.home >= 0)
+    home = jnp.clip(units.home, 0, n - 1)
+    on_gas = worker & (units.type[home] == UnitType.REFINERY)
+    on_minerals = worker & (units.type[home] == UnitType.MINERAL_FIELD)
+    diff = units.pos[:, None, :] - units.pos[None, :, :]
+    dist = jnp.sqrt(jnp.sum(diff * diff, axis=-1))
+    depot = nearest_depot(units, dist)[home]
+    count = lambda where, at: jnp.zeros(n, jnp.int32).at[  # noqa: E731
+        jnp.where(where, at, n)].add(1, mode="drop")
+    fields = units.alive & (units.type == UnitType.MINERAL_FIELD) & (units.contents > 0)
+    cc = own & units.complete & (units.type == UnitType.COMMAND_CENTER)
+    refinery = own & units.complete & (units.type == UnitType.REFINERY)
+    near_fields = jnp.sum(fields[None, :] & (dist <= BASE_RADIUS), axis=1)
+    assigned = jnp.where(cc, count(on_minerals & (depot >= 0), depot),
+                         jnp.where(refinery, count(on_gas, home), 0))
+    ideal = jnp.where(cc, 2 * near_fields, jnp.where(refinery & (units.contents > 0), 3, 0))
+    return assigned.astype(jnp.int32), ideal.astype(jnp.int32)
+
+
 def feature_units(units: Units, include, pixel_pos, pixel_radius, on_screen, length,
                   with_tags: bool):
     """int32[length, 46] `FeatureUnit` rows of the units where `include`, in slot order.
@@ -121,7 +153,10 @@ def feature_units(units: Units, include, pixel_pos, pixel_radius, on_screen, len
     t = units.type
     n = units.num_slots
     zeros = jnp.zeros(n, jnp.int32)
-    order_length = jnp.sum(units.orders != Order.NONE, axis=1)
+    # A producer's training queue is its orders, as in the game.
+    order_length = jnp.sum(units.orders != Order.NONE, axis=1) + jnp.sum(units.queue != 0,
+                                                                           axis=1)
+    assigned, ideal = harvesters(units)
     columns = {
         "unit_type": jnp.asarray(d.sc2_id)[t],
         "alliance": player_relative(units.owner),
@@ -145,7 +180,10 @@ def feature_units(units: Units, include, pixel_pos, pixel_radius, on_screen, len
         "tag": units.tag if with_tags else zeros,
         "is_on_screen": on_screen.astype(jnp.int32),
         "mineral_contents": jnp.where(t == UnitType.MINERAL_FIELD, units.contents, 0),
-        "vespene_contents": jnp.where(t == UnitType.VESPENE_GEYSER, units.contents, 0),
+        "vespene_contents": jnp.where((t == UnitType.VESPENE_GEYSER) | (t == UnitType.REFINERY),
+                                      units.contents, 0),
+        "assigned_harvesters": assigned,
+        "ideal_harvesters": ideal,
     }
     rows = jnp.stack([columns.get(f.name, zeros).astype(jnp.int32)
                       for f in tables.FeatureUnit], axis=-1)

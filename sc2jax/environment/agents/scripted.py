@@ -14,6 +14,7 @@ What each needs from the observation format is checked when the policy is built
 
 from __future__ import annotations
 
+import functools
 from collections.abc import Callable
 
 import jax
@@ -22,6 +23,7 @@ import jax.numpy as jnp
 from sc2jax.environment.dense import DenseAction
 from sc2jax.environment.features import PlayerRelative, Visibility
 from sc2jax.environment.functions import FUNCTIONS
+from sc2jax.environment.minigames import get_map
 from sc2jax.environment.observation_tables import FeatureUnit
 from sc2jax.environment.specs import ObservationFormat
 
@@ -197,6 +199,9 @@ def defeat_zerglings_and_banelings(key, obs) -> DenseAction:
 
 def required_format(map_name: str) -> dict:
     """The `ObservationFormat` settings a map's scripted agent needs (for `make`)."""
+    if map_name in ("CollectMineralsAndGas", "BuildMarines"):
+        # Every unit of these maps is on the screen, up to their slots.
+        return {"use_feature_units": True, "max_units": get_map(map_name).num_slots}
     if map_name in ("MoveToBeacon", "CollectMineralShards", "DefeatRoaches",
                     "DefeatZerglingsAndBanelings"):
         return {"use_feature_units": True}
@@ -210,9 +215,14 @@ def scripted_policy(map_name: str, fmt: ObservationFormat) -> Policy:
       ValueError: for a map without a scripted agent, or a format lacking what the
         agent reads (feature units, or the minimap layers it uses).
     """
-    if required_format(map_name).get("use_feature_units") and not fmt.use_feature_units:
+    needs = required_format(map_name)
+    if needs.get("use_feature_units") and not fmt.use_feature_units:
         raise ValueError(f"the {map_name} scripted agent reads feature_units; build the "
                          f"environment with use_feature_units=True")
+    if fmt.max_units < needs.get("max_units", 0):
+        raise ValueError(f"the {map_name} scripted agent reads every unit; build the "
+                         f"environment with max_units >= {needs['max_units']}, "
+                         f"got {fmt.max_units}")
     if map_name == "MoveToBeacon":
         return move_to_beacon
     if map_name == "CollectMineralShards":
@@ -230,9 +240,14 @@ def scripted_policy(map_name: str, fmt: ObservationFormat) -> Policy:
         return defeat_roaches
     if map_name == "DefeatZerglingsAndBanelings":
         return defeat_zerglings_and_banelings
+    if map_name in ("CollectMineralsAndGas", "BuildMarines"):
+        # Imported here: the economy agents build on this module's helpers.
+        from sc2jax.environment.agents.scripted_economy import PLANS, economy
+        return functools.partial(economy, plan=PLANS[map_name])
     raise ValueError(f"no scripted agent for map {map_name!r}; there are agents for "
                      f"{list(SCRIPTED_MAPS)}")
 
 
 SCRIPTED_MAPS = ("MoveToBeacon", "CollectMineralShards", "FindAndDefeatZerglings",
-                 "DefeatRoaches", "DefeatZerglingsAndBanelings")
+                 "DefeatRoaches", "DefeatZerglingsAndBanelings", "CollectMineralsAndGas",
+                 "BuildMarines")

@@ -119,7 +119,7 @@ class BuildMarines(EconomyGame):
     FIELDS = LEFT_FIELDS
 
     def __init__(self):
-        super().__init__("BuildMarines", time_limit=900, num_slots=160)
+        super().__init__("BuildMarines", time_limit=900, num_slots=200)
 
     @property
     def card_table(self) -> np.ndarray:
