@@ -65,6 +65,7 @@ def issue(units: Units, order, queued, point, target_unit=NO_TARGET, unit_type=0
     units = units.replace(
         orders=orders, order_pos=order_pos, order_unit=order_unit, order_type=order_type,
         patrol_origin=jnp.where(starts_now[:, None], units.pos, units.patrol_origin),
+        work=jnp.where(starts_now, 0.0, units.work),
         target=jnp.where(starts_now, jnp.where(order == Order.ATTACK_UNIT, target_unit,
                                                NO_TARGET), units.target))
     return units, takes.any()
@@ -77,5 +78,6 @@ def stop(units: Units):
         orders=jnp.where(who[:, None], Order.NONE, units.orders),
         order_unit=jnp.where(who[:, None], NO_TARGET, units.order_unit),
         order_type=jnp.where(who[:, None], 0, units.order_type),
+        work=jnp.where(who, 0.0, units.work),
         target=jnp.where(who, NO_TARGET, units.target))
     return units, who.any()

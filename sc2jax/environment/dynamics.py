@@ -110,8 +110,8 @@ def _select_targets(units: Units, data, gap, enemy):
     return jnp.where(order == Order.ATTACK_UNIT, ordered, auto)
 
 
-def game_loop(units: Units, key, playable, bursts: bool = False,
-              workers: bool = False) -> tuple[Units, LoopEvents]:
+def game_loop(units: Units, key, playable, bursts: bool = False, workers: bool = False,
+              combat: bool = True) -> tuple[Units, LoopEvents]:
     """Advances all units by one game loop.
 
     Args:
@@ -121,6 +121,8 @@ def game_loop(units: Units, key, playable, bursts: bool = False,
       bursts: (static) whether the map has units with a suicide splash attack (`burst`
         in the unit data); maps without them skip its cost.
       workers: (static) whether the map has workers that harvest (`harvest`).
+      combat: (static) whether the map has enemies; maps without them skip targeting
+        and attacks.
 
     Returns:
       The new units and the loop's events.
@@ -143,7 +145,10 @@ def game_loop(units: Units, key, playable, bursts: bool = False,
     units = pop_order(units, target_gone & alive)
     order = units.orders[:, 0]
 
-    target = _select_targets(units, data, gap, enemy)
+    if combat:
+        target = _select_targets(units, data, gap, enemy)
+    else:
+        target = jnp.full(n, NO_TARGET, jnp.int32)
     has_target = (target >= 0) & alive
     safe_target = jnp.clip(target, 0, n - 1)
     target_gap = gap[rows, safe_target]
@@ -196,6 +201,8 @@ def game_loop(units: Units, key, playable, bursts: bool = False,
     # its cooldown plus a jitter of -1..+2 loops. A ready weapon that does not fire
     # gains no credit.
     fires = in_range & (units.cooldown <= 0.0) & alive
+    if not combat:
+        fires = jnp.zeros(n, bool)
     single = fires & (data.burst <= 0) if bursts else fires
     hits = jnp.where(single, _damage_per_hit(data, safe_target), 0.0)
     damage = jnp.zeros(n, jnp.float32).at[safe_target].add(hits)
@@ -218,15 +225,17 @@ def game_loop(units: Units, key, playable, bursts: bool = False,
 
     # A unit hit while idle turns on (one of) its attackers, and so does an idle unit
     # whose ally within its acquisition range was hit.
-    attacker = jnp.full(n, -1, jnp.int32).at[safe_target].max(jnp.where(fires, rows, -1))
-    ally = ((units.owner[:, None] == units.owner[None, :]) & alive[:, None] & alive[None, :]
-            & (rows[:, None] != rows[None, :]))
-    calls = ally & (gap <= data.acquire[:, None]) & (attacker[None, :] >= 0)
-    called = jnp.max(jnp.where(calls, attacker[None, :], -1), axis=1)
-    answer = jnp.where(attacker >= 0, attacker, called)
-    idle = units.orders[:, 0] == Order.NONE
-    retaliate = idle & (answer >= 0) & (units.target < 0) & (data.damage > 0)
-    new_target = jnp.where(retaliate, answer, target)
+    new_target = target
+    if combat:
+        attacker = jnp.full(n, -1, jnp.int32).at[safe_target].max(jnp.where(fires, rows, -1))
+        ally = ((units.owner[:, None] == units.owner[None, :]) & alive[:, None]
+                & alive[None, :] & (rows[:, None] != rows[None, :]))
+        calls = ally & (gap <= data.acquire[:, None]) & (attacker[None, :] >= 0)
+        called = jnp.max(jnp.where(calls, attacker[None, :], -1), axis=1)
+        answer = jnp.where(attacker >= 0, attacker, called)
+        idle = units.orders[:, 0] == Order.NONE
+        retaliate = idle & (answer >= 0) & (units.target < 0) & (data.damage > 0)
+        new_target = jnp.where(retaliate, answer, target)
 
     health = units.health - damage
     died = alive & (((data.max_health > 0) & (health <= 0)) | exploded)

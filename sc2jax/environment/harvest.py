@@ -6,7 +6,8 @@ The game's cycle (reference/pysc2_facts.md §7), run once per game loop by
 - a worker with a GATHER order walks to its mineral field (the order's target unit);
 - touching it (edge to edge within `REACH`), and if no other worker is mining it, it
   mines for 2.786 game seconds (`MINING_LOOPS`), then takes 5 minerals from the field
-  (fewer if fewer are left) and turns to RETURN them to the nearest own Command Center;
+  (fewer if fewer are left), pauses 0.5 game seconds (`LEAVE_LOOPS`) and RETURNs them to
+  the nearest own complete Command Center;
 - touching the Command Center deposits the cargo, and the worker goes back to GATHER
   from the same field;
 - a worker that finds its field taken waits, or moves on to a nearby field with fewer
@@ -34,6 +35,8 @@ REACH = 0.1
 MINING_LOOPS = 2.786 * LOOPS_PER_SECOND
 """Loops a worker mines a mineral field for (2.786 game seconds: 45 whole loops)."""
 MINERALS_PER_TRIP = 5.0
+LEAVE_LOOPS = 0.5 * LOOPS_PER_SECOND
+"""Loops a worker pauses at a mineral field after mining, before it leaves."""
 GAS_LOOPS = 1.981 * LOOPS_PER_SECOND
 """Loops a worker harvests inside a Refinery for (1.981 game seconds: 32 whole loops)."""
 GAS_PER_TRIP = 4.0
@@ -151,9 +154,11 @@ def harvest(units: Units, touching, dist) -> tuple[Units, jnp.ndarray, jnp.ndarr
     returning = units.alive & (order == Order.RETURN)
     depot = nearest_depot(units, dist)
 
-    # Mining: the clock runs down; a finished worker takes its cargo.
+    # Mining: the clock runs down; a finished worker takes its cargo. A worker leaving a
+    # mineral field pauses first (its RETURN waits while `work` > 0).
     mining = gather & (units.work > 0)
-    work = jnp.where(mining, units.work - 1.0, units.work)
+    pausing = returning & (units.work > 0)
+    work = jnp.where(mining | pausing, units.work - 1.0, units.work)
     finished = mining & (work <= 0)
     trip = jnp.where(refinery, GAS_PER_TRIP, MINERALS_PER_TRIP)
     take = jnp.where(finished, jnp.minimum(trip, units.contents[safe]), 0.0)
@@ -165,7 +170,7 @@ def harvest(units: Units, touching, dist) -> tuple[Units, jnp.ndarray, jnp.ndarr
     first = jnp.full(n, n, jnp.int32).at[safe].min(jnp.where(waiting, rows, n))
     start = waiting & ~occupied[safe] & (first[safe] == rows)
     work = jnp.where(start, jnp.where(refinery, GAS_LOOPS, MINING_LOOPS),
-                     jnp.where(finished, 0.0, work))
+                     jnp.where(finished, jnp.where(refinery, 0.0, LEAVE_LOOPS), work))
     target = jnp.where(waiting & ~start & ~refinery,
                        _spread(units, safe, waiting & ~start & ~refinery, dist, contents),
                        target)

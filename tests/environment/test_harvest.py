@@ -2,8 +2,8 @@
 
 SCV: radius 0.375, speed 2.8125 / 16 = 0.17578 units per loop. Command Center radius
 2.75; MineralField radius 1.125, 1800 minerals. A worker touches a unit within 0.1
-(edge to edge), mines for 2.786 game seconds = 44.576 loops (done on the 45th), and
-carries 5 minerals.
+(edge to edge), mines for 2.786 game seconds = 44.576 loops (done on the 45th), pauses
+8 loops, and carries 5 minerals.
 """
 
 import functools
@@ -16,7 +16,7 @@ import numpy as np
 from sc2jax.environment import FUNCTIONS, commands
 from sc2jax.environment.availability import available_actions
 from sc2jax.environment.dynamics import game_loop
-from sc2jax.environment.harvest import MINING_LOOPS, REACH
+from sc2jax.environment.harvest import LEAVE_LOOPS, MINING_LOOPS, REACH
 from sc2jax.environment.state import Order, Owner
 from sc2jax.environment.units import UNIT_DATA, UnitType
 
@@ -54,19 +54,20 @@ def run(units, loops):
 def test_one_trip_delivers_five_minerals_after_walk_mine_and_walk_back():
     # The SCV starts touching the Command Center (gap 0.05). It walks to the field (gap
     # 1.325 -> within 0.1: ceil(1.225 / 0.17578) = 7 loops) and starts mining on the
-    # loop it arrives, finishes 45 loops later, and walks back (it stopped 0.099 from the
-    # field, 1.276 from the Command Center: 7 loops): the deposit is on loop 59.
+    # loop it arrives, finishes 45 loops later, pauses 8 loops, and walks back (it
+    # stopped 0.099 from the field, 1.276 from the Command Center: 7 loops): the deposit
+    # is on loop 67.
     start = CC[0] + R_CC + R_SCV + 0.05
     gap_out = FIELD[0] - R_FIELD - R_SCV - start
     walk_out = math.ceil((gap_out - REACH) / SPEED)
     stop = FIELD[0] - R_FIELD - R_SCV - (REACH - 1e-3)
     walk_back = math.ceil((stop - (CC[0] + R_CC + R_SCV) - REACH) / SPEED)
-    mine = math.ceil(MINING_LOOPS)
-    assert (walk_out, mine, walk_back) == (7, 45, 7)
+    mine, pause = math.ceil(MINING_LOOPS), int(LEAVE_LOOPS)
+    assert (walk_out, mine, pause, walk_back) == (7, 45, 8, 7)
     units = scene([start])
-    units, delivered = run(units, walk_out + mine + walk_back + 2)
+    units, delivered = run(units, walk_out + mine + pause + walk_back + 2)
     (trips,) = np.nonzero(delivered)
-    assert trips.tolist() == [walk_out + mine + walk_back - 1]  # Loop 59, 0-based 58.
+    assert trips.tolist() == [walk_out + mine + pause + walk_back - 1]  # Loop 67.
     assert delivered[trips[0]] == 5.0
     assert float(units.contents[1]) == 1795.0
     # It heads back to the same field, empty-handed.

@@ -52,6 +52,7 @@ class MiniGame:
       camera: the camera centre the script pans to.
       unit_types: every `UnitType` the map can hold (sizes the renderer's windows).
       starting_minerals: the player's minerals at the start.
+      has_enemies: whether the map has enemy units (else the engine skips combat).
     """
 
     name: str
@@ -62,6 +63,7 @@ class MiniGame:
     camera: tuple[float, float]
     unit_types: tuple[UnitType, ...]
     starting_minerals: int = 0
+    has_enemies: bool = True
 
     def init(self, key) -> tuple[Units, Any, jax.Array]:
         """Returns the starting units, the script's state, and the next unit tag."""

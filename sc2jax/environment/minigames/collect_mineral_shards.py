@@ -48,7 +48,8 @@ class CollectMineralShards(MiniGame):
         super().__init__(name="CollectMineralShards", time_limit=120,
                          num_slots=2 + NUM_SHARDS, geometry=flat_geometry(REGION_1), fog=False,
                          camera=(33.0, 25.0),
-                         unit_types=(UnitType.MARINE, UnitType.MINERAL_SHARD))
+                         unit_types=(UnitType.MARINE, UnitType.MINERAL_SHARD),
+                         has_enemies=False)
 
     def init(self, key):
         k_marines, k_shards = jax.random.split(key)

@@ -74,7 +74,8 @@ class EconomyGame(MiniGame):
     def __init__(self, name, time_limit, num_slots):
         super().__init__(name=name, time_limit=time_limit, num_slots=num_slots,
                          geometry=flat_geometry(REGION_1), fog=False, camera=CAMERA,
-                         unit_types=_UNIT_TYPES, starting_minerals=STARTING_MINERALS)
+                         unit_types=_UNIT_TYPES, starting_minerals=STARTING_MINERALS,
+                         has_enemies=False)
 
     @property
     def command_center(self) -> int:
