@@ -10,7 +10,9 @@ import pytest
 
 from sc2jax.environment import FUNCTIONS, FeatureUnit, ObservationFormat, Simulator
 from sc2jax.environment.agents import required_format, scripted_policy
+from sc2jax.environment.agents.scripted_economy import DEPOT_SITES, _to_pixel
 from sc2jax.environment.environments import simulator
+from sc2jax.environment.observation_tables import Player
 from sc2jax.experiments import evaluation
 
 FMT = ObservationFormat(32, 32, **required_format("MoveToBeacon"))
@@ -124,3 +126,66 @@ def test_evaluate_writes_json(tmp_path):
     assert result["max"] == max(result["scores"])
     assert result["config"]["map"] == "MoveToBeacon"
     assert "Random policy" in out.stdout  # The paper's rows are printed beside.
+
+
+def _economy_obs(units, player, selected=0, last=-1, res=64):
+    """A hand-made observation: `units` rows are (unit id, alliance, x, y, build %,
+    order length); `player` maps `Player` fields to values; `selected` is the unit id
+    selected alone."""
+    rows = np.zeros((16, len(FeatureUnit)), np.int32)
+    for i, (kind, alliance, x, y, progress, queue) in enumerate(units):
+        rows[i, [FeatureUnit.unit_type, FeatureUnit.alliance, FeatureUnit.x, FeatureUnit.y,
+                 FeatureUnit.build_progress, FeatureUnit.order_length]] = (
+            kind, alliance, x, y, progress, queue)
+    vector = np.zeros(11, np.int32)
+    for field, value in player.items():
+        vector[field] = value
+    single = np.zeros((1, 7), np.int32)
+    single[0, 0] = selected
+    return {"feature_units": rows, "feature_screen": np.zeros((1, res, res), np.int32),
+            "player": vector, "single_select": single, "multi_select": np.zeros((4, 7), np.int32),
+            "last_actions": np.array([last], np.int32)}
+
+
+def test_economy_script_sends_idle_workers_builds_supply_and_trains():
+    scv, cc, depot, barracks, field = 45, 18, 19, 21, 341
+    fmt = ObservationFormat(64, 64, **required_format("BuildMarines"))
+    cmag = scripted_policy("CollectMineralsAndGas", fmt)
+    units = [(cc, 1, 24, 24, 100, 0), (field, 3, 8, 22, 100, 0), (field, 3, 56, 22, 100, 0),
+             (scv, 1, 12, 22, 100, 0), (scv, 1, 30, 30, 100, 0)]
+    busy = {Player.minerals: 40, Player.food_used: 12, Player.food_cap: 15,
+            Player.food_workers: 12}
+    # An idle worker is selected, then sent to the mineral field nearest the CC.
+    act = cmag(None, _economy_obs(units, {**busy, Player.idle_worker_count: 1}))
+    assert int(act.function) == FUNCTIONS.select_idle_worker.id
+    act = cmag(None, _economy_obs(units, busy, selected=scv,
+                                  last=FUNCTIONS.select_idle_worker.id))
+    assert int(act.function) == FUNCTIONS.Harvest_Gather_screen.id
+    assert np.asarray(act.screen).tolist() == [8, 22]
+    # Supply runs low: an SCV from the mineral line builds a depot at the first site.
+    low = {**busy, Player.minerals: 120, Player.food_used: 13}
+    act = cmag(None, _economy_obs(units, low))
+    assert int(act.function) == FUNCTIONS.select_point.id
+    assert np.asarray(act.screen).tolist() == [12, 22]
+    act = cmag(None, _economy_obs(units, low, selected=scv))
+    assert int(act.function) == FUNCTIONS.Build_SupplyDepot_screen.id
+    site = np.asarray(_to_pixel(np.asarray(DEPOT_SITES[0]), 64)).tolist()
+    assert np.asarray(act.screen).tolist() == site
+    # Enough supply and a 50: an SCV from an idle Command Center.
+    rich = {**busy, Player.minerals: 60}
+    act = cmag(None, _economy_obs(units, rich))
+    assert int(act.function) == FUNCTIONS.select_point.id
+    assert np.asarray(act.screen).tolist() == [24, 24]
+    act = cmag(None, _economy_obs(units, rich, selected=cc))
+    assert int(act.function) == FUNCTIONS.Train_SCV_quick.id
+    # BuildMarines, with its 22 SCVs: Marines from every idle Barracks, selected together.
+    bm = scripted_policy("BuildMarines", fmt)
+    base = units + [(depot, 1, 20, 5, 100, 0), (barracks, 1, 40, 28, 100, 0)]
+    marines = {**rich, Player.food_workers: 22, Player.food_cap: 23}
+    act = bm(None, _economy_obs(base, marines))
+    assert int(act.function) == FUNCTIONS.select_point.id
+    assert int(act.select_point_act) == 2 and np.asarray(act.screen).tolist() == [40, 28]
+    act = bm(None, _economy_obs(base, marines, selected=barracks))
+    assert int(act.function) == FUNCTIONS.Train_Marine_quick.id
+    with pytest.raises(ValueError, match="max_units >= 200"):
+        scripted_policy("BuildMarines", ObservationFormat(64, 64, use_feature_units=True))
