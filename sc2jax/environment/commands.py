@@ -19,13 +19,14 @@ def commandable(units: Units):
 
 def obeys(units: Units, order):
     """bool[N]: units able to carry out an order type (movers move, armed units attack,
-    workers harvest)."""
+    workers harvest and build)."""
     speed = jnp.asarray(UNIT_DATA.speed)[units.type]
     damage = jnp.asarray(UNIT_DATA.damage)[units.type]
     moves = speed > 0
     armed = damage > 0
     needs_weapon = (order == Order.ATTACK_UNIT) | (order == Order.ATTACK_MOVE)
-    harvests = (order == Order.GATHER) | (order == Order.RETURN)
+    harvests = ((order == Order.GATHER) | (order == Order.RETURN) | (order == Order.BUILD)
+                | (order == Order.CONSTRUCT))
     return jnp.where(harvests, units.type == UnitType.SCV, jnp.where(
         needs_weapon | (order == Order.HOLD), moves | armed, moves))
 
