@@ -162,6 +162,12 @@ def test_economy_script_sends_idle_workers_builds_supply_and_trains():
                                   last=FUNCTIONS.select_idle_worker.id))
     assert int(act.function) == FUNCTIONS.Harvest_Gather_screen.id
     assert np.asarray(act.screen).tolist() == [8, 22]
+    # With 3 workers per field of the base (24 of an ideal 16), to the far line.
+    saturated = _economy_obs(units, busy, selected=scv, last=FUNCTIONS.select_idle_worker.id)
+    saturated["feature_units"][0, [FeatureUnit.assigned_harvesters,
+                                   FeatureUnit.ideal_harvesters]] = (24, 16)
+    act = cmag(None, saturated)
+    assert np.asarray(act.screen).tolist() == [56, 22]
     # Supply runs low: an SCV from the mineral line builds a depot at the first site.
     low = {**busy, Player.minerals: 120, Player.food_used: 13}
     act = cmag(None, _economy_obs(units, low))

@@ -7,7 +7,8 @@ step):
 
 1. an idle SCV selected by the previous step goes to work: to a Refinery short of its
    3 workers, else to the mineral field nearest the Command Center (workers spread over
-   the line by themselves); otherwise any idle SCV is selected;
+   the line by themselves), or once that line has 3 workers per field, to the nearest
+   field beyond the base; otherwise any idle SCV is selected;
 2. a Supply Depot when the free supply runs low (3, plus 2 per Barracks) and none is
    being built, at the first free site of a fixed layout;
 3. SCVs from the Command Center, keeping one in training, up to the plan's count;
@@ -32,6 +33,7 @@ from sc2jax.environment.dense import DenseAction
 from sc2jax.environment.features import PlayerRelative
 from sc2jax.environment.functions import FUNCTIONS
 from sc2jax.environment.minigames.economy import CAMERA
+from sc2jax.environment.observation import BASE_RADIUS
 from sc2jax.environment.observation_tables import FeatureUnit, Player
 
 _SCV, _CC, _DEPOT, _REFINERY, _BARRACKS = 45, 18, 19, 20, 21
@@ -114,8 +116,16 @@ def economy(key, obs, plan: Plan) -> DenseAction:
     # 1. Idle workers.
     short = refinery & done & (rows[:, FeatureUnit.assigned_harvesters]
                                < rows[:, FeatureUnit.ideal_harvesters])
+    # With 3 workers per field of its base, the Command Center's line is saturated: new
+    # workers go to the nearest field outside the base (a long walk, but income).
+    cc_row = rows[jnp.argmax(cc)]
+    ideal = cc_row[FeatureUnit.ideal_harvesters]
+    saturated = (ideal > 0) & (2 * cc_row[FeatureUnit.assigned_harvesters] >= 3 * ideal)
+    d2_cc = jnp.sum((xy.astype(jnp.float32) - cc_xy) ** 2, -1)
+    far = (kind == _MINERAL_FIELD) & (d2_cc > (BASE_RADIUS * res / 24.0) ** 2)
+    mine_at = jnp.where(saturated & far.any(), nearest(far, cc_xy), field)
     send = pick(short.any(), call(F.Smart_screen.id, screen=xy[jnp.argmax(short)]),
-                call(F.Harvest_Gather_screen.id, screen=xy[field]))
+                call(F.Harvest_Gather_screen.id, screen=xy[mine_at]))
     sent_idle = (last == F.select_idle_worker.id) & (selected == _SCV)
     idle = player[Player.idle_worker_count] > 0
 
