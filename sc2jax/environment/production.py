@@ -182,7 +182,7 @@ class Economy(NamedTuple):
       units: the units.
       minerals: int32 the player's minerals.
       next_tag: int32 the next unit tag.
-      spent: int32 minerals spent this loop (refunds subtract).
+      spent: int32 minerals spent this loop on structures.
       created: bool[N] slots where a unit was trained or a structure placed this loop.
     """
 
