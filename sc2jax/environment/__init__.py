@@ -46,7 +46,7 @@ from sc2jax.environment.observation_tables import (
     UnitLayer,
 )
 from sc2jax.environment.protocol_enums import ActionResult, Alert
-from sc2jax.environment.simulator import EnvParams, Simulator
+from sc2jax.environment.simulator import BLIZZARD_SCORE, EnvParams, Simulator
 from sc2jax.environment.specs import (
     ObservationFormat,
     VariableLengthArray,

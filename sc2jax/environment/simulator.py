@@ -202,7 +202,7 @@ class Simulator:
                                observation=self.observe(state))
 
     def _reward(self, old: EnvState, new: EnvState, ended):
-        if self.score_index < 0:
+        if self.score_index == -1:  # The outcome.
             outcome = {Outcome.VICTORY: 1.0, Outcome.DEFEAT: -1.0}
             value = sum(jnp.where(new.outcome == o, v, 0.0) for o, v in outcome.items())
             return jnp.where(ended, value, 0.0)

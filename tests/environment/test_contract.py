@@ -64,7 +64,9 @@ def test_determinism(map_name):
     assert not np.array_equal(screens(a), screens(c))
 
 
-@pytest.mark.parametrize("map_name", MAP_NAMES)
+# BuildMarines runs CollectMineralsAndGas' engine paths; its batched step (N = 200) would
+# cost the suite half a minute of compilation for no new coverage.
+@pytest.mark.parametrize("map_name", [m for m in MAP_NAMES if m != "BuildMarines"])
 def test_vmap_matches_single(map_name):
     sim = small_sim(map_name)
     reset, step = compiled(sim)

@@ -13,7 +13,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from sc2jax.environment import FUNCTIONS, Simulator, to_dense
+from sc2jax.environment import FUNCTIONS, Simulator, score, to_dense
 from sc2jax.environment.minigames.economy import COMMAND_CENTER, GEYSERS, LEFT_FIELDS
 from sc2jax.environment.observation_tables import Player, ScoreCumulative
 from sc2jax.environment.protocol_enums import ActionResult
@@ -301,13 +301,15 @@ def test_workers_spread_over_the_mineral_line():
     assert len(fields) >= 6
 
 
-def test_blizzard_score_reward_ignores_spending():
-    sim = Simulator(CMAG, fmt=SMALL, score_index=-2)
-    reset, step = jax.jit(sim.reset), jax.jit(sim.step)
-    state, _ = reset(jax.random.PRNGKey(0))
-    state = state.replace(minerals=jnp.int32(1000))
-    types = sim.fmt.types
-    state, ts = step(state, to_dense(F.select_point("select", pixel(state, COMMAND_CENTER)),
-                                     types))
-    state, ts = step(state, to_dense(F.Train_SCV_quick("now"), types))
-    assert float(ts.reward) == 0 and int(state.minerals) == 950
+def test_blizzard_score_reward_ignores_spending_and_counts_income():
+    state, step = start()
+    state, _ = select_cc(step, state)
+    trained, _ = act(step, state, F.Train_SCV_quick("now"))
+    assert int(trained.minerals) == int(state.minerals) - 50
+    # The reward of score_index=-2 (computed here without compiling that simulator).
+    blizzard = Simulator(CMAG, fmt=SMALL, score_index=-2)
+    before, after = score.blizzard_score(state), score.blizzard_score(trained)
+    assert int(before) == 1000 + 12 * 50 + 400  # Minerals, SCVs, the Command Center.
+    assert float(blizzard._reward(state, trained, False)) == float(after - before) == 0.0
+    richer = trained.replace(minerals=trained.minerals + 5)
+    assert float(blizzard._reward(trained, richer, False)) == 5.0
