@@ -12,6 +12,7 @@ import functools
 import jax
 import jax.numpy as jnp
 import numpy as np
+import pytest
 
 from sc2jax.environment import FUNCTIONS, Simulator, score, to_dense
 from sc2jax.environment.minigames.economy import COMMAND_CENTER, GEYSERS, LEFT_FIELDS
@@ -313,3 +314,9 @@ def test_blizzard_score_reward_ignores_spending_and_counts_income():
     assert float(blizzard._reward(state, trained, False)) == float(after - before) == 0.0
     richer = trained.replace(minerals=trained.minerals + 5)
     assert float(blizzard._reward(trained, richer, False)) == 5.0
+
+
+def test_bad_score_index_names_what_is_allowed():
+    for bad in (-3, 13, 1.0):
+        with pytest.raises(ValueError, match=r"score_index must be -2 \(the Blizzard score\)"):
+            Simulator(CMAG, fmt=SMALL, score_index=bad)
