@@ -20,8 +20,8 @@ def _stack(timesteps):
 @pytest.mark.parametrize("map_name", MAP_NAMES)
 def test_episode_structure_and_specs(map_name):
     sim = small_sim(map_name)
-    # Long maps start their clock within 240 steps of the end.
-    start = max(0, sim.game.time_limit_loops - 240 * sim.step_mul)
+    # Long maps start their clock within 120 steps of the end.
+    start = max(0, sim.game.time_limit_loops - 120 * sim.step_mul)
     length = (sim.game.time_limit_loops - start) // sim.step_mul
     first, timesteps, _ = random_episode(sim, seed=3, steps=length + 2, start_loop=start)
     step_types = np.array([int(ts.step_type) for ts in timesteps])
@@ -62,30 +62,6 @@ def test_determinism(map_name):
     assert all(np.array_equal(x, y) for x, y in zip(leaves_a, leaves_b))
     screens = lambda run: np.stack([ts.observation["feature_screen"] for ts in run[1]])  # noqa: E731
     assert not np.array_equal(screens(a), screens(c))
-
-
-# BuildMarines runs CollectMineralsAndGas' engine paths; its batched step (N = 200) would
-# cost the suite half a minute of compilation for no new coverage.
-@pytest.mark.parametrize("map_name", [m for m in MAP_NAMES if m != "BuildMarines"])
-def test_vmap_matches_single(map_name):
-    sim = small_sim(map_name)
-    reset, step = compiled(sim)
-    vreset, vstep = compiled(sim, batched=True)
-    keys = jax.random.split(jax.random.PRNGKey(5), 3)
-    states, tss = vreset(keys, PARAMS)
-    actions = to_dense([FUNCTIONS.select_army("select"), FUNCTIONS.no_op(),
-                        FUNCTIONS.move_camera((3, 4))])
-    _, tss2 = vstep(states, actions, PARAMS)
-    for i in range(3):
-        state, ts = reset(keys[i], PARAMS)
-        assert np.array_equal(ts.observation["feature_screen"],
-                              tss.observation["feature_screen"][i])
-        action = jax.tree_util.tree_map(lambda x, i=i: x[i], actions)
-        _, ts = step(state, action, PARAMS)
-        for key in ts.observation:
-            assert np.array_equal(ts.observation[key], tss2.observation[key][i]), key
-        assert float(ts.reward) == float(tss2.reward[i])
-        assert int(ts.step_type) == int(tss2.step_type[i])
 
 
 @pytest.mark.parametrize("map_name", MAP_NAMES)

@@ -1,0 +1,36 @@
+"""The contract's jit/vmap half: a batched step equals the single steps it batches (in a
+file of its own, so that test workers share the contract's compilation work)."""
+
+import jax
+import numpy as np
+import pytest
+
+from sc2jax.environment import FUNCTIONS, MAPS, to_dense
+
+from .conftest import PARAMS, compiled, small_sim
+
+MAP_NAMES = sorted(MAPS)
+
+
+# BuildMarines runs CollectMineralsAndGas' engine paths; its batched step (N = 200) would
+# cost the suite half a minute of compilation for no new coverage.
+@pytest.mark.parametrize("map_name", [m for m in MAP_NAMES if m != "BuildMarines"])
+def test_vmap_matches_single(map_name):
+    sim = small_sim(map_name)
+    reset, step = compiled(sim)
+    vreset, vstep = compiled(sim, batched=True)
+    keys = jax.random.split(jax.random.PRNGKey(5), 3)
+    states, tss = vreset(keys, PARAMS)
+    actions = to_dense([FUNCTIONS.select_army("select"), FUNCTIONS.no_op(),
+                        FUNCTIONS.move_camera((3, 4))])
+    _, tss2 = vstep(states, actions, PARAMS)
+    for i in range(3):
+        state, ts = reset(keys[i], PARAMS)
+        assert np.array_equal(ts.observation["feature_screen"],
+                              tss.observation["feature_screen"][i])
+        action = jax.tree_util.tree_map(lambda x, i=i: x[i], actions)
+        _, ts = step(state, action, PARAMS)
+        for key in ts.observation:
+            assert np.array_equal(ts.observation[key], tss2.observation[key][i]), key
+        assert float(ts.reward) == float(tss2.reward[i])
+        assert int(ts.step_type) == int(tss2.step_type[i])
