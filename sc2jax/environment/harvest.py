@@ -171,9 +171,8 @@ def harvest(units: Units, touching, dist) -> tuple[Units, jnp.ndarray, jnp.ndarr
     start = waiting & ~occupied[safe] & (first[safe] == rows)
     work = jnp.where(start, jnp.where(refinery, GAS_LOOPS, MINING_LOOPS),
                      jnp.where(finished, jnp.where(refinery, 0.0, LEAVE_LOOPS), work))
-    target = jnp.where(waiting & ~start & ~refinery,
-                       _spread(units, safe, waiting & ~start & ~refinery, dist, contents),
-                       target)
+    blocked = waiting & ~start & ~refinery
+    target = jnp.where(blocked, _spread(units, safe, blocked, dist, contents), target)
 
     # Depositing at the Command Center.
     deposit = returning & touching & (units.cargo > 0)

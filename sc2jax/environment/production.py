@@ -334,18 +334,21 @@ def production_loop(units: Units, minerals, next_tag, buildable) -> Economy:
       next_tag: int32 the next unit tag.
       buildable: bool[H, W] the map's buildable cells.
     """
-    created = jnp.zeros(units.num_slots, bool)
-    units, minerals, next_tag, spent, created = _place_arrivals(units, minerals, next_tag,
-                                                                buildable, created)
+    units, minerals, next_tag, spent, placed = _place_arrivals(units, minerals, next_tag,
+                                                               buildable)
     units = _construct(units)
-    units, next_tag, created = _train(units, next_tag, created)
-    return Economy(units, minerals, next_tag, spent, created)
+    units, next_tag, trained = _train(units, next_tag)
+    return Economy(units, minerals, next_tag, spent, placed | trained)
 
 
-def _place_arrivals(units: Units, minerals, next_tag, buildable, created):
+def _place_arrivals(units: Units, minerals, next_tag, buildable):
     """The first (lowest-slot) SCV to reach its BUILD site places its structure, if the
     site, the cost, the tech and a free slot allow; otherwise its order fails. One
-    placement per loop: a second builder re-checks its site a loop later."""
+    placement per loop: a second builder re-checks its site a loop later.
+
+    Returns:
+      (units, minerals, next_tag, spent, placed bool[N] the new structure's slot).
+    """
     n = units.num_slots
     rows = jnp.arange(n)
     kind = units.order_type[:, 0]
@@ -383,8 +386,7 @@ def _place_arrivals(units: Units, minerals, next_tag, buildable, created):
     units = jax.tree_util.tree_map(lambda a, b: jnp.where(ok, a, b), new, units)
     failed = arrived & is_builder & ~ok
     units = pop_order(units, failed)
-    return (units, minerals - cost, jnp.where(ok, tag, next_tag), cost,
-            created | (ok & (rows == slot)))
+    return units, minerals - cost, jnp.where(ok, tag, next_tag), cost, ok & (rows == slot)
 
 
 def _construct(units: Units) -> Units:
@@ -411,9 +413,13 @@ def _construct(units: Units) -> Units:
     return pop_order(units, finished)
 
 
-def _train(units: Units, next_tag, created):
+def _train(units: Units, next_tag):
     """Queue heads train while the supply allows; finished units appear beside their
-    producer and follow its rally."""
+    producer and follow its rally.
+
+    Returns:
+      (units, next_tag, trained bool[N] the new units' slots).
+    """
     n = units.num_slots
     head = units.queue[:, 0]
     producing = _own(units) & units.complete & (head != 0)
@@ -458,5 +464,5 @@ def _train(units: Units, next_tag, created):
         [units.queue[:, 1:], jnp.zeros((n, 1), jnp.int32)], axis=1), units.queue)
     new = new.replace(queue=queue, queue_work=jnp.where(spawns, 0.0, jnp.where(
         done, work - 1.0, work)))
-    return new, next_tag + jnp.sum(spawns, dtype=jnp.int32), created | (
-        jnp.zeros(n, bool).at[slot].set(True, mode="drop"))
+    return (new, next_tag + jnp.sum(spawns, dtype=jnp.int32),
+            jnp.zeros(n, bool).at[slot].set(True, mode="drop"))

@@ -21,29 +21,30 @@ upgrades researched (none on these maps).
 from __future__ import annotations
 
 import jax.numpy as jnp
+import numpy as np
 
 from sc2jax.environment.observation_tables import ScoreCumulative as C
+from sc2jax.environment.production import trained_type
 from sc2jax.environment.state import EnvState, Owner, Units
-from sc2jax.environment.units import UNIT_DATA, Attribute, UnitType
+from sc2jax.environment.units import UNIT_DATA, Attribute
 
 LOOPS_PER_RATE_MINUTE = 22.4 * 60
 """Game loops per real minute at Faster speed: the unit of the collection rates."""
 RATE_SMOOTHING = 1.0 / 160.0
 """The moving average's weight per loop (a time constant of 10 game seconds)."""
 
-_VALUE = jnp.asarray(UNIT_DATA.mineral_cost + UNIT_DATA.vespene_cost, jnp.int32)
-_STRUCTURE = jnp.asarray((UNIT_DATA.attributes & Attribute.STRUCTURE) > 0)
-_PRODUCER = jnp.zeros(len(UnitType), bool).at[
-    jnp.array([UnitType.COMMAND_CENTER, UnitType.BARRACKS])].set(True)
+_VALUE = (UNIT_DATA.mineral_cost + UNIT_DATA.vespene_cost).astype(np.int32)
+_STRUCTURE = (UNIT_DATA.attributes & Attribute.STRUCTURE) > 0
 
 
 def values(units: Units):
     """(units, structures, queued) int32: the cost of the player's living units, of its
     structures, and of the units in its training queues."""
     own = units.alive & (units.owner == Owner.SELF)
-    worth = _VALUE[units.type]
-    structure = _STRUCTURE[units.type]
-    queued = jnp.sum(jnp.where(own[:, None] & (units.queue != 0), _VALUE[units.queue], 0))
+    value = jnp.asarray(_VALUE)
+    worth = value[units.type]
+    structure = jnp.asarray(_STRUCTURE)[units.type]
+    queued = jnp.sum(jnp.where(own[:, None] & (units.queue != 0), value[units.queue], 0))
     return (jnp.sum(jnp.where(own & ~structure, worth, 0)),
             jnp.sum(jnp.where(own & structure, worth, 0)), queued)
 
@@ -70,10 +71,10 @@ def after_loop(state: EnvState, old_units: Units, died, minerals, vespene, spent
     """
     units = state.units
     enemy_died = died & (old_units.owner == Owner.ENEMY)
-    killed = jnp.sum(jnp.where(enemy_died, _VALUE[old_units.type], 0))
+    killed = jnp.sum(jnp.where(enemy_died, jnp.asarray(_VALUE)[old_units.type], 0))
     own = units.alive & (units.owner == Owner.SELF)
     idle_workers = jnp.sum(units.idle_workers)
-    idle_producers = jnp.sum(units.complete & own & _PRODUCER[units.type]
+    idle_producers = jnp.sum(units.complete & own & (trained_type(units) != 0)
                              & (units.queue[:, 0] == 0))
     income = jnp.stack([minerals, vespene]) * LOOPS_PER_RATE_MINUTE
     rate = state.collection_rate + (income - state.collection_rate) * RATE_SMOOTHING

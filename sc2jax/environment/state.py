@@ -160,8 +160,8 @@ class EnvState:
       score_cumulative: int32[13] the rest of `score_cumulative` (index 0 mirrors `score`).
       score_by_vital: float32[3, 3] `score_by_vital` (damage dealt, taken, healed).
       minerals, vespene: int32 scalars.
-      collection_rate: float32[2] minerals and vespene collected per game minute, a
-        moving average (`score_cumulative`'s collection rates).
+      collection_rate: float32[2] minerals and vespene collected per real minute at
+        Faster speed, a moving average (`score_cumulative`'s collection rates).
       explored: bool[map_h, map_w] cells the player has ever seen, row 0 at the top (as
         the `MapGeometry` grids).
       next_tag: int32 scalar, the next unit tag.
