@@ -245,8 +245,9 @@ def make(map_name: str, screen_size: specs.Size = 64, minimap_size: specs.Size =
          use_raw_units: bool = False, max_units: int = 64, score_index: int = 0,
          score_multiplier: float = 1.0, discount: float = 1.0,
          ensure_available_actions: bool = True, game_steps_per_episode: int = 0,
-         allow_cheating_layers: bool = False) -> SC2Env | BatchedSC2Env:
-    """Creates a simulator environment by map name.
+         allow_cheating_layers: bool = False, backend: str = "simulator",
+         sc2path: str | None = None, bot: Any = None) -> SC2Env | BatchedSC2Env:
+    """Creates an environment by map name: the simulator's, or the real game's.
 
     Args:
       map_name: a mini-game, e.g. "MoveToBeacon".
@@ -261,10 +262,25 @@ def make(map_name: str, screen_size: specs.Size = 64, minimap_size: specs.Size =
       ensure_available_actions: raise for unavailable functions (else they are no-ops).
       game_steps_per_episode: PySC2's truncation limit in game loops (0: none).
       allow_cheating_layers: fill the minimap `unit_type` layer.
+      backend: "simulator" (the embedded default) or "sc2": StarCraft II itself, launched
+        from `sc2path` (default `$SC2PATH`) and driven over its API by a
+        `game_env.GameEnv` with the same observations and actions. The game may be any
+        map it knows (a mini-game name, or a path under its Maps folder).
+      sc2path: the game's install folder (backend "sc2").
+      bot: a `game_env.Bot` opponent (backend "sc2"; e.g. for the full game).
 
     Raises:
       ValueError: for an unknown map or a bad setting, before anything is compiled.
     """
+    if backend == "sc2":
+        return _make_game(map_name, screen_size, minimap_size, step_mul, num_envs, seed,
+                          screen_features, minimap_features, use_feature_units, use_raw_units,
+                          score_index, score_multiplier, discount, ensure_available_actions,
+                          game_steps_per_episode, sc2path, bot)
+    if backend != "simulator":
+        raise ValueError(f"backend {backend!r} is not allowed; expected 'simulator' or 'sc2'")
+    if bot is not None or sc2path is not None:
+        raise ValueError("bot and sc2path apply to backend='sc2' only")
     if not isinstance(map_name, str) or map_name not in MAPS:
         raise ValueError(f"unknown map {map_name!r}; the simulator has {sorted(MAPS)}")
     fmt = specs.ObservationFormat(
@@ -277,3 +293,32 @@ def make(map_name: str, screen_size: specs.Size = 64, minimap_size: specs.Size =
     if num_envs is None:
         return SC2Env(sim, seed, ensure_available_actions, game_steps_per_episode)
     return BatchedSC2Env(sim, num_envs, seed, ensure_available_actions, game_steps_per_episode)
+
+
+def _make_game(map_name, screen_size, minimap_size, step_mul, num_envs, seed, screen_features,
+               minimap_features, use_feature_units, use_raw_units, score_index,
+               score_multiplier, discount, ensure_available_actions, game_steps_per_episode,
+               sc2path, bot):
+    """`make` for the real game (backend "sc2")."""
+    from sc2jax.environment.game_env import GameEnv  # noqa: PLC0415 (needs protobuf)
+    from sc2jax.environment.launcher import launch  # noqa: PLC0415
+
+    if num_envs is not None:
+        raise ValueError(f"backend 'sc2' runs one game per environment; got num_envs="
+                         f"{num_envs!r} (use num_envs=None, and one process per game)")
+    if use_feature_units or use_raw_units:
+        raise ValueError("backend 'sc2' does not give feature_units or raw_units yet")
+    if not isinstance(map_name, str) or not map_name:
+        raise ValueError(f"map_name must be a non-empty str, got {map_name!r}")
+    if map_name in MAPS:
+        map_path = f"mini_games/{map_name}.SC2Map"
+    else:
+        map_path = map_name if map_name.endswith(".SC2Map") else f"{map_name}.SC2Map"
+    return GameEnv(lambda: launch(sc2path).controller, map_name, map_path=map_path,
+                   screen_size=screen_size, minimap_size=minimap_size,
+                   screen_features=screen_features, minimap_features=minimap_features,
+                   bot=bot, step_mul=step_mul, game_steps_per_episode=game_steps_per_episode,
+                   # On other maps the default is PySC2's: the outcome.
+                   score_index=score_index if map_name in MAPS or score_index else -1,
+                   score_multiplier=score_multiplier, discount=discount,
+                   ensure_available_actions=ensure_available_actions, random_seed=seed)

@@ -173,9 +173,8 @@ class Simulator:
         """
         params = self.default_params() if params is None else params
         over = self.episode_over(state, params)
-        reset_key, step_key = jax.random.split(state.key)
-        advanced = self._advance(state.replace(key=step_key), action)
-        new = reset_where(self._initial_state, over, reset_key, advanced)
+        reset_key, _ = jax.random.split(state.key)
+        new = reset_where(self._initial_state, over, reset_key, self.advance(state, action))
         ended = self.episode_over(new, params)
         terminated = new.outcome != Outcome.RUNNING
         step_type = jnp.where(over, dm_env.StepType.FIRST,
@@ -184,6 +183,17 @@ class Simulator:
         discount = jnp.where(over | terminated, 0.0, self.discount)
         return new, self._timestep(new, step_type.astype(jnp.int32), reward.astype(jnp.float32),
                                    discount.astype(jnp.float32))
+
+    def act(self, state: EnvState, action: DenseAction) -> EnvState:
+        """Applies an action without advancing the game (the SC2 API's `RequestAction`)."""
+        return apply_action(state, action, self.renderer, self.card_table,
+                            economy=self.game.has_production)
+
+    def advance(self, state: EnvState, action: DenseAction) -> EnvState:
+        """Applies the action and runs `step_mul` game loops, with no auto-reset: the
+        state part of `step` (the SC2 API's `RequestAction` then `RequestStep`)."""
+        _, step_key = jax.random.split(state.key)
+        return self._advance(state.replace(key=step_key), action)
 
     def episode_over(self, state: EnvState, params: EnvParams):
         """bool: the episode has ended (a LAST timestep was, or will be, emitted)."""
@@ -231,8 +241,7 @@ class Simulator:
         return self._explore(state)
 
     def _advance(self, state: EnvState, action: DenseAction) -> EnvState:
-        state = apply_action(state, action, self.renderer, self.card_table,
-                             economy=self.game.has_production)
+        state = self.act(state, action)
         game = self.game
         buildable = jnp.asarray(game.geometry.buildable)
 
