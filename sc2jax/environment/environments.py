@@ -50,7 +50,7 @@ def to_pysc2_layout(padded: dict, map_name: str) -> dict:
 
 
 @functools.cache
-def _compiled(sim: Simulator, batched: bool):
+def compiled(sim: Simulator, batched: bool):
     """Compiled reset and step, shared by every environment of the same simulator."""
     reset, step = sim.reset, sim.step
     if batched:
@@ -84,7 +84,7 @@ class _Base(dm_env.Environment):
         self._params = EnvParams(game_steps_per_episode=np.int32(game_steps_per_episode))
         seed = np.random.SeedSequence().entropy % (2 ** 31) if seed is None else seed
         self._key = jax.random.PRNGKey(seed)
-        self._reset_fn, self._step_fn = _compiled(sim, batched)
+        self._reset_fn, self._step_fn = compiled(sim, batched)
         self._state = None
         self._available = None
 

@@ -28,10 +28,11 @@ import numpy as np
 
 from sc2jax.environment import proto_actions, proto_observation, specs
 from sc2jax.environment.dense import to_dense
-from sc2jax.environment.environments import simulator
+from sc2jax.environment.environments import compiled, simulator
 from sc2jax.environment.functions import FUNCTIONS, FunctionCall, validate_function_call
 from sc2jax.environment.minigames import MAPS, get_map
 from sc2jax.environment.protos import sc2api
+from sc2jax.environment.simulator import EnvParams
 from sc2jax.environment.state import Outcome
 from sc2jax.environment.units import UNIT_DATA, UnitType
 
@@ -51,6 +52,7 @@ SC2_NAMES = {
 """The game's names of the simulator's unit types (`data` replies)."""
 
 log = logging.getLogger(__name__)
+_PARAMS = EnvParams(game_steps_per_episode=np.int32(0))  # The map's own timer ends games.
 _STATUS = sc2api.Status
 _TERRAN = sc2api.Race.Value("Terran")
 
@@ -60,10 +62,8 @@ class RequestError(Exception):
 
 
 @functools.cache
-def _programs(sim):
-    """Compiled reset, act, advance and observe of one simulator configuration."""
-    return (jax.jit(lambda key: sim.reset(key)[0]), jax.jit(sim.act), jax.jit(sim.advance),
-            jax.jit(sim.observe))
+def _act(sim):
+    return jax.jit(sim.act)
 
 
 class GameService:
@@ -77,6 +77,7 @@ class GameService:
         self._options = None
         self._fmt: specs.ObservationFormat | None = None
         self._state = None
+        self._last_observation = None
         self._pending: list[FunctionCall] = []
         self._step_mul = 8
 
@@ -243,10 +244,14 @@ class GameService:
         if self.status == _STATUS.in_game:
             calls = self._pending or [FunctionCall(FUNCTIONS.no_op.id, [])]
             self._pending = []
-            _, act, advance, _ = _programs(self._simulator(count))
+            sim = self._simulator(count)
             for call in calls[:-1]:
-                self._state = act(self._state, to_dense(call, self._fmt.types))
-            self._state = advance(self._state, to_dense(calls[-1], self._fmt.types))
+                self._state = _act(sim)(self._state, to_dense(call, self._fmt.types))
+            # While the game runs, `Simulator.step` is `advance` then `observe`: the
+            # program `SC2Env` compiles for the same format, shared with it.
+            self._state, timestep = compiled(sim, False)[1](
+                self._state, to_dense(calls[-1], self._fmt.types), _PARAMS)
+            self._last_observation = timestep.observation
             if int(self._state.outcome) != Outcome.RUNNING:
                 self.status = _STATUS.ended
         response.step.simulation_loop = int(self._state.game_loop)
@@ -254,8 +259,7 @@ class GameService:
     def _observation(self, request, response) -> None:
         del request
         self._require("observation", _STATUS.in_game, _STATUS.ended)
-        sim = self._simulator(self._step_mul)
-        obs = jax.device_get(_programs(sim)[3](self._state))
+        obs = jax.device_get(self._last_observation)
         outcome = int(self._state.outcome)
         result = None if outcome == Outcome.RUNNING else outcome  # Result values match.
         response.observation.CopyFrom(proto_observation.encode(obs, self._fmt, result=result))
@@ -270,6 +274,8 @@ class GameService:
     def _start(self) -> None:
         """Starts an episode with the next key, as `SC2Env.reset` does."""
         self._seed_key, key = jax.random.split(self._seed_key)
-        self._state = _programs(self._simulator(self._step_mul))[0](key)
+        self._state, timestep = compiled(self._simulator(self._step_mul), False)[0](key,
+                                                                                  _PARAMS)
+        self._last_observation = timestep.observation
         self._pending = []
         self.status = _STATUS.in_game

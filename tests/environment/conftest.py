@@ -9,9 +9,9 @@ import functools
 import jax
 import numpy as np
 
-from sc2jax.environment import EnvParams, ObservationFormat, Simulator
+from sc2jax.environment import EnvParams, ObservationFormat, Simulator, environments
 from sc2jax.environment.agents import random_action
-from sc2jax.environment.environments import _compiled, simulator
+from sc2jax.environment.environments import simulator
 
 SMALL_MAKE = dict(screen_size=32, minimap_size=32, use_feature_units=True, use_raw_units=True,
                   max_units=32)
@@ -25,7 +25,7 @@ def small_sim(map_name: str, fmt: ObservationFormat = SMALL) -> Simulator:
 
 def compiled(sim: Simulator, batched: bool = False):
     """(reset(key, params), step(state, action, params)), jitted once per simulator."""
-    return _compiled(sim, batched)
+    return environments.compiled(sim, batched)
 
 
 @functools.cache
