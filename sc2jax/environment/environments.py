@@ -49,6 +49,34 @@ def to_pysc2_layout(padded: dict, map_name: str) -> dict:
     return out
 
 
+def to_padded_layout(obs: dict, fmt: specs.ObservationFormat) -> dict:
+    """Converts one observation in PySC2's layout back to the padded layout (the inverse
+    of `to_pysc2_layout`; `map_name` is dropped), e.g. for the real game's observations
+    in a batch.
+
+    Raises:
+      ValueError: if a list is longer than the padded layout holds.
+    """
+    out = {}
+    for key, spec in specs.observation_spec(fmt, padded=True).items():
+        value = np.asarray(obs[key])
+        if key == "available_actions":
+            mask = np.zeros(spec.shape, bool)
+            mask[value] = True
+            out[key] = mask
+            continue
+        if value.shape != spec.shape:
+            if value.shape[0] > spec.shape[0] or value.shape[1:] != spec.shape[1:]:
+                raise ValueError(f"observation {key!r} of shape {value.shape} does not fit "
+                                 f"the padded shape {spec.shape}")
+            fill = -1 if key == "last_actions" else 0
+            padded = np.full(spec.shape, fill, spec.dtype)
+            padded[:value.shape[0]] = value
+            value = padded
+        out[key] = value.astype(spec.dtype, copy=False)
+    return out
+
+
 @functools.cache
 def compiled(sim: Simulator, batched: bool):
     """Compiled reset and step, shared by every environment of the same simulator."""
@@ -238,6 +266,10 @@ def _check_dense_ranges(action: DenseAction, types) -> None:
                              f"{allowed}: {np.unique(values[bad]).tolist()[:8]}")
 
 
+LADDER_GAME_STEPS = 16 * 60 * 30
+"""PySC2's episode limit on ladder maps: 30 game minutes, in game loops."""
+
+
 def make(map_name: str, screen_size: specs.Size = 64, minimap_size: specs.Size = 64,
          step_mul: int = 8, num_envs: int | None = None, seed: int | None = None, *,
          screen_features: Sequence[str] | None = None,
@@ -267,7 +299,9 @@ def make(map_name: str, screen_size: specs.Size = 64, minimap_size: specs.Size =
         `game_env.GameEnv` with the same observations and actions. The game may be any
         map it knows (a mini-game name, or a path under its Maps folder).
       sc2path: the game's install folder (backend "sc2").
-      bot: a `game_env.Bot` opponent (backend "sc2"; e.g. for the full game).
+      bot: a `game_env.Bot` opponent (backend "sc2"; e.g. for the full game). On maps
+        other than the mini-games the reward defaults to the outcome (score_index -1)
+        and episodes to PySC2's 30 game minutes (`LADDER_GAME_STEPS`), a tie.
 
     Raises:
       ValueError: for an unknown map or a bad setting, before anything is compiled.
@@ -312,8 +346,9 @@ def _make_game(map_name, screen_size, minimap_size, step_mul, num_envs, seed, sc
         raise ValueError(f"map_name must be a non-empty str, got {map_name!r}")
     if map_name in MAPS:
         map_path = f"mini_games/{map_name}.SC2Map"
-    else:
+    else:  # A ladder map: PySC2's 30-minute limit, which ends the game in a tie.
         map_path = map_name if map_name.endswith(".SC2Map") else f"{map_name}.SC2Map"
+        game_steps_per_episode = game_steps_per_episode or LADDER_GAME_STEPS
     return GameEnv(lambda: launch(sc2path).controller, map_name, map_path=map_path,
                    screen_size=screen_size, minimap_size=minimap_size,
                    screen_features=screen_features, minimap_features=minimap_features,

@@ -18,6 +18,7 @@ The flow is PySC2's `SC2Env` (reference/pysc2_facts.md §5):
 
 from __future__ import annotations
 
+import concurrent.futures
 import contextlib
 import os
 import pathlib
@@ -26,10 +27,12 @@ from collections.abc import Callable, Sequence
 from typing import NamedTuple
 
 import dm_env
+import numpy as np
 
 from sc2jax.environment import proto_actions, proto_observation, specs
 from sc2jax.environment.controller import Controller
 from sc2jax.environment.dense import DenseAction, check_dense_action, from_dense
+from sc2jax.environment.environments import to_padded_layout
 from sc2jax.environment.functions import FUNCTIONS, FunctionCall, validate_function_call
 from sc2jax.environment.minigames import MAPS
 from sc2jax.environment.protos import sc2api
@@ -296,3 +299,54 @@ class GameEnv(dm_env.Environment):
             raise TypeError(f"GameEnv.step takes a FunctionCall or a DenseAction, got "
                             f"{type(action).__name__}")
         return validate_function_call(action, self.fmt.types)
+
+
+class GameEnvBatch(dm_env.Environment):
+    """Several `GameEnv`s (game processes, or servers standing in for them) stepped
+    together, as one batched environment in `BatchedSC2Env`'s layout: padded
+    observations with a leading batch dimension, a batched `DenseAction` in. Each game
+    starts a new episode on the step after its LAST timestep (its own auto-reset).
+
+    The games step in parallel threads (each waits on its own process), so a
+    `HostActor` can act for all of them with one batched policy call.
+
+    Args:
+      envs: the games; they must share one observation format.
+    """
+
+    def __init__(self, envs: Sequence[GameEnv]):
+        envs = list(envs)
+        if not envs or not all(isinstance(e, GameEnv) for e in envs):
+            raise ValueError(f"GameEnvBatch needs one or more GameEnvs, got {envs!r}")
+        if len({e.fmt for e in envs}) != 1:
+            raise ValueError("the games of a GameEnvBatch must share one observation format")
+        self.envs, self.fmt, self.num_envs = envs, envs[0].fmt, len(envs)
+        self._pool = concurrent.futures.ThreadPoolExecutor(len(envs), "sc2jax-game")
+
+    def observation_spec(self) -> dict:
+        """The spec of one game's padded observation (without the batch dim)."""
+        return specs.observation_spec(self.fmt, padded=True)
+
+    def action_spec(self) -> DenseAction:
+        return specs.action_spec(self.fmt.screen_size, self.fmt.minimap_size)
+
+    def reset(self) -> dm_env.TimeStep:
+        return self._stack(list(self._pool.map(lambda env: env.reset(), self.envs)))
+
+    def step(self, action: DenseAction) -> dm_env.TimeStep:
+        check_dense_action(action, (self.num_envs,))
+        calls = from_dense(action)
+        return self._stack(list(self._pool.map(lambda env, call: env.step(call), self.envs,
+                                               calls)))
+
+    def close(self) -> None:
+        list(self._pool.map(lambda env: env.close(), self.envs))
+        self._pool.shutdown()
+
+    def _stack(self, timesteps: list[dm_env.TimeStep]) -> dm_env.TimeStep:
+        observations = [to_padded_layout(t.observation, self.fmt) for t in timesteps]
+        return dm_env.TimeStep(
+            step_type=np.array([t.step_type for t in timesteps], np.int32),
+            reward=np.array([t.reward for t in timesteps], np.float32),
+            discount=np.array([t.discount for t in timesteps], np.float32),
+            observation={k: np.stack([o[k] for o in observations]) for k in observations[0]})
