@@ -28,7 +28,7 @@ from sc2jax.environment.minigames import MAPS
 from sc2jax.environment.protos import sc2api
 from sc2jax.environment.server import Sc2ApiServer
 
-SIZES = dict(screen_size=24, minimap_size=16)
+SIZES = dict(screen_size=16, minimap_size=16)
 
 
 @pytest.fixture
@@ -242,7 +242,7 @@ def test_an_install_layout_launches_the_server_and_survives_a_killed_game(tmp_pa
     env = GameEnv(connect, "MoveToBeacon", random_seed=0, **SIZES)
     try:
         first = env.reset()
-        assert first.observation["feature_screen"].shape == (27, 24, 24)
+        assert first.observation["feature_screen"].shape == (27, 16, 16)
         env.step(FUNCTIONS.select_army("select"))
         games[0].process.kill()  # The game dies mid-episode.
         with pytest.raises(ConnectionError, match="connection to the game was lost"):

@@ -30,7 +30,7 @@ CONFIG = TrainConfig(map_name="MoveToBeacon", agent="fullyconv", screen_size=16,
                      minimap_size=16, screen_features=("player_relative", "selected"),
                      minimap_features=("player_relative",),
                      functions=("no_op", "select_army", "Move_screen"), num_envs=16,
-                     unroll_length=8, learning_rate=7e-4, total_steps=300 * 128)
+                     unroll_length=8, learning_rate=7e-4, total_steps=240 * 128)
 MOVE = FUNCTIONS.Move_screen.id
 
 

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 import os
+import threading
 
 import jax
 import jax.numpy as jnp
@@ -11,6 +12,9 @@ import numpy as np
 import pytest
 
 from sc2jax.environment import make
+from sc2jax.environment.controller import Controller
+from sc2jax.environment.game_env import GameEnv, GameEnvBatch
+from sc2jax.environment.server import Sc2ApiServer
 from sc2jax.experiments import evaluation, trainer
 from sc2jax.experiments import sweeping as sampling
 from sc2jax.experiments.actor import make_unroll
@@ -216,3 +220,31 @@ def test_split_loop_trains_from_a_dm_env_environment():
     assert all(np.isfinite(m["loss"]) for m in metrics)
     with pytest.raises(ValueError, match="num_updates"):
         run_split_loop(actor, agent.learner, state.learner, 0)
+
+
+def test_split_loop_trains_from_games_over_the_sc2_api():
+    # Two simulator servers stand in for two game processes; one batched policy acts
+    # for both, and their trajectories feed the learner.
+    config = TrainConfig(**{**TINY.to_json(), "off_policy_correction": "vtrace"})
+    agent = trainer.build(config)
+    servers = [Sc2ApiServer(port=0) for _ in range(2)]
+    for server in servers:
+        threading.Thread(target=server.serve_forever, daemon=True).start()
+    games = GameEnvBatch([
+        GameEnv(lambda server=server: Controller.connect("127.0.0.1", server.port),
+                config.map_name, screen_size=16, minimap_size=16,
+                screen_features=config.screen_features,
+                minimap_features=config.minimap_features, random_seed=seed)
+        for seed, server in enumerate(servers)])
+    try:
+        assert games.fmt == agent.sim.fmt
+        actor = HostActor(games, agent.core, config.unroll_length)
+        state = agent.initial_state(jax.random.PRNGKey(3))
+        learner, metrics = run_split_loop(actor, agent.learner, state.learner, 2)
+        assert int(learner.update) == 2 and all(np.isfinite(m["loss"]) for m in metrics)
+        trajectory = actor.unroll(learner.params)
+        k = config.unroll_length
+        assert trajectory.observation["feature_screen"].shape == (k + 1, 2, 2, 16, 16)
+        assert trajectory.observation["available_actions"].dtype == bool
+    finally:
+        games.close()
