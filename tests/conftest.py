@@ -1,16 +1,23 @@
-"""A JAX compilation cache shared by the test processes of one session.
+"""Compilation settings for the test processes of one session.
 
-Many tests build the same program more than once (training runs that are resumed, a run
-trained and then evaluated, every xdist worker compiling a map's step). A persistent
-compilation cache in a fresh directory per session lets each be compiled once; nothing
-is shared between sessions, so every run measures and checks from scratch.
+- A JAX compilation cache shared by the test processes. Many tests build the same
+  program more than once (training runs that are resumed, a run trained and then
+  evaluated, every xdist worker compiling a map's step). A persistent cache in a fresh
+  directory per session lets each be compiled once; nothing is shared between
+  sessions, so every run checks from scratch.
+- XLA's CPU backend at optimisation level 0 (unless `XLA_FLAGS` is set): the suite is
+  dominated by compiling many small programs, which this makes about a third cheaper;
+  the programs compute the same results (no fast-math either way), only slower, which
+  costs the few long-running tests less than it saves.
 """
 
 import os
 import shutil
 import tempfile
 
-import jax
+os.environ.setdefault("XLA_FLAGS", "--xla_backend_optimization_level=0")
+
+import jax  # noqa: E402  (after XLA_FLAGS)
 
 _ENV = "SC2JAX_TEST_COMPILATION_CACHE"
 
