@@ -1,0 +1,139 @@
+"""The actor, the compiled loop and the split loop (tiny, fast settings; the training
+runs are in test_training.py, in a file of their own so that test workers share the load)."""
+
+from __future__ import annotations
+
+import threading
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+import pytest
+
+from sc2jax.environment import make
+from sc2jax.environment.controller import Controller
+from sc2jax.environment.game_env import GameEnv, GameEnvBatch
+from sc2jax.environment.server import Sc2ApiServer
+from sc2jax.experiments import trainer
+from sc2jax.experiments.actor import make_unroll
+from sc2jax.experiments.compiled_loop import make_train_chunk
+from sc2jax.experiments.config import TrainConfig
+from sc2jax.experiments.host_actor import HostActor, run_split_loop
+from sc2jax.losses.learner_loss import unroll as network_unroll
+from sc2jax.networks import policy
+
+from .test_training import TINY
+
+
+@pytest.fixture(scope="module")
+def agent():
+    return trainer.build(TINY)
+
+
+def test_unroll_emits_a_consistent_trajectory(agent):
+    unroll = make_unroll(agent.sim, agent.core, 6)
+    state = agent.initial_state(jax.random.PRNGKey(0))
+    actor, traj, episodes = jax.jit(unroll.unroll)(state.learner.params, state.actor)
+    k, b = 6, TINY.num_envs
+    assert traj.observation["feature_screen"].shape == (k + 1, b, 2, 16, 16)
+    assert traj.action.function.shape == traj.reward.shape == (k, b)
+    assert traj.first.shape == (k + 1, b) and bool(traj.first[0].all())
+    assert episodes.ended.shape == (k, b)
+    # The next unroll starts where this one ended.
+    np.testing.assert_array_equal(traj.observation["feature_screen"][-1],
+                                  actor.timestep.observation["feature_screen"])
+    # The behaviour log-probability is the network's log-probability of the action.
+    out = network_unroll(agent.network, state.learner.params,
+                         jax.tree.map(lambda x: x[:k], traj.observation))
+    log_pi = policy.log_prob(out, traj.action, traj.observation["available_actions"][:k])
+    np.testing.assert_allclose(traj.behaviour_log_prob, log_pi.total, rtol=1e-4, atol=1e-4)
+    # Every action was available where it was taken.
+    available = np.asarray(traj.observation["available_actions"][:k])
+    chosen = np.take_along_axis(available, np.asarray(traj.action.function)[..., None], -1)
+    assert chosen.all()
+
+
+def test_scan_and_loop_chunks_agree_and_learn(agent):
+    unroll = make_unroll(agent.sim, agent.core, TINY.unroll_length)
+    state = agent.initial_state(jax.random.PRNGKey(1))
+    before = jax.tree.map(np.asarray, state.learner.params)
+    outs = []
+    for scan in (True, False):
+        chunk = make_train_chunk(unroll, agent.learner, 2, scan=scan)
+        fresh = jax.tree.map(jnp.array, state)  # the chunk donates its input
+        outs.append(chunk(fresh))
+    (s1, m1, e1), (s2, m2, e2) = outs
+    assert m1["loss"].shape == (2,) and e1.ended.shape == (2, TINY.unroll_length, 2)
+    assert int(s1.learner.update) == 2
+    jax.tree.map(lambda a, b: np.testing.assert_allclose(a, b, rtol=2e-4, atol=1e-6),
+                 s1.learner.params, s2.learner.params)
+    # The torso, the value and the function head learn (argument heads of functions
+    # never taken get no gradient).
+    for name in ("fc", "value", "function", "screen_conv"):
+        changed = jax.tree.map(lambda a, b: bool(np.any(a != np.asarray(b))),
+                               before["params"][name], s1.learner.params["params"][name])
+        assert all(jax.tree.leaves(changed)), name
+
+
+def test_sweep_chunk_vmaps_over_runs(agent):
+    unroll = make_unroll(agent.sim, agent.core, TINY.unroll_length)
+    rates = jnp.array([1e-4, 1e-3], jnp.float32)
+    states = jax.vmap(agent.initial_state)(jax.random.split(jax.random.PRNGKey(2), 2), rates)
+    chunk = make_train_chunk(unroll, agent.learner, 2, num_runs=2)
+    states, metrics, episodes = chunk(states)
+    assert metrics["learning_rate"].shape == (2, 2)
+    np.testing.assert_allclose(metrics["learning_rate"][:, 0], [1e-4, 1e-3], rtol=1e-6)
+    assert episodes.score.shape == (2, 2, TINY.unroll_length, 2)
+
+
+def test_split_loop_trains_from_a_dm_env_environment():
+    config = TrainConfig(**{**TINY.to_json(), "off_policy_correction": "vtrace"})
+    agent = trainer.build(config)
+    env = make(config.map_name, screen_size=16, minimap_size=16,
+               screen_features=config.screen_features,
+               minimap_features=config.minimap_features, num_envs=2, seed=0)
+    assert env.simulator.fmt == agent.sim.fmt
+    actor = HostActor(env, agent.core, config.unroll_length)
+    state = agent.initial_state(jax.random.PRNGKey(3))
+    trajectory = actor.unroll(state.learner.params)
+    k = config.unroll_length
+    assert trajectory.observation["feature_screen"].shape == (k + 1, 2, 2, 16, 16)
+    assert trajectory.behaviour_log_prob.shape == trajectory.reward.shape == (k, 2)
+    out = network_unroll(agent.network, state.learner.params,
+                         jax.tree.map(lambda x: x[:k], trajectory.observation))
+    log_pi = policy.log_prob(out, trajectory.action,
+                             trajectory.observation["available_actions"][:k]).total
+    np.testing.assert_allclose(trajectory.behaviour_log_prob, log_pi, rtol=1e-4, atol=1e-4)
+    learner, metrics = run_split_loop(actor, agent.learner, state.learner, 3)
+    assert int(learner.update) == 3 and len(metrics) == 3
+    assert all(np.isfinite(m["loss"]) for m in metrics)
+    with pytest.raises(ValueError, match="num_updates"):
+        run_split_loop(actor, agent.learner, state.learner, 0)
+
+
+def test_split_loop_trains_from_games_over_the_sc2_api():
+    # Two simulator servers stand in for two game processes; one batched policy acts
+    # for both, and their trajectories feed the learner.
+    config = TrainConfig(**{**TINY.to_json(), "off_policy_correction": "vtrace"})
+    agent = trainer.build(config)
+    servers = [Sc2ApiServer(port=0) for _ in range(2)]
+    for server in servers:
+        threading.Thread(target=server.serve_forever, daemon=True).start()
+    games = GameEnvBatch([
+        GameEnv(lambda server=server: Controller.connect("127.0.0.1", server.port),
+                config.map_name, screen_size=16, minimap_size=16,
+                screen_features=config.screen_features,
+                minimap_features=config.minimap_features, random_seed=seed)
+        for seed, server in enumerate(servers)])
+    try:
+        assert games.fmt == agent.sim.fmt
+        actor = HostActor(games, agent.core, config.unroll_length)
+        state = agent.initial_state(jax.random.PRNGKey(3))
+        learner, metrics = run_split_loop(actor, agent.learner, state.learner, 2)
+        assert int(learner.update) == 2 and all(np.isfinite(m["loss"]) for m in metrics)
+        trajectory = actor.unroll(learner.params)
+        k = config.unroll_length
+        assert trajectory.observation["feature_screen"].shape == (k + 1, 2, 2, 16, 16)
+        assert trajectory.observation["available_actions"].dtype == bool
+    finally:
+        games.close()
