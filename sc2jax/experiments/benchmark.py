@@ -19,9 +19,6 @@ available actions for the three allied marines against its heuristic enemy.
 from __future__ import annotations
 
 import datetime
-import os
-import platform
-import re
 import statistics
 import time
 from collections.abc import Callable, Sequence
@@ -33,6 +30,7 @@ from absl import app, flags, logging
 
 from sc2jax.environment import MAPS, ObservationFormat, Simulator
 from sc2jax.environment.agents.random_agent import random_action
+from sc2jax.experiments.machine import machine
 from sc2jax.experiments.markdown import write_section
 
 FLAGS = flags.FLAGS
@@ -173,20 +171,6 @@ def measure_smax(num_envs: int, step_mul: int, steps: int, repeats: int) -> Resu
     rollout, carry = smax_rollout(num_envs, steps, step_mul)
     return Result(f"SMAX-{SMAX_SCENARIO}", num_envs, steps,
                   time_rollout(rollout, carry, repeats), step_mul)
-
-
-def machine() -> str:
-    """One line: cores, CPU model, load average, JAX backend."""
-    model = platform.processor() or "unknown CPU"
-    try:
-        with open("/proc/cpuinfo") as f:
-            found = re.search(r"model name\s*:\s*(.*)", f.read())
-        model = found.group(1).strip() if found else model
-    except OSError:
-        pass
-    load = ", ".join(f"{x:.2f}" for x in os.getloadavg())
-    return (f"{os.cpu_count()} cores, {model}; load average {load}; "
-            f"JAX {jax.__version__} on {jax.default_backend()} ({jax.devices()[0].device_kind})")
 
 
 def markdown(results: Sequence[Result], smax: dict[int, Result], command: str,
