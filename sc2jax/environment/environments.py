@@ -278,7 +278,7 @@ def make(map_name: str, screen_size: specs.Size = 64, minimap_size: specs.Size =
          score_multiplier: float = 1.0, discount: float = 1.0,
          ensure_available_actions: bool = True, game_steps_per_episode: int = 0,
          allow_cheating_layers: bool = False, backend: str = "simulator",
-         sc2path: str | None = None, bot: Any = None) -> SC2Env | BatchedSC2Env:
+         sc2path: str | None = None, bot: Any = None) -> dm_env.Environment:
     """Creates an environment by map name: the simulator's, or the real game's.
 
     Args:
@@ -302,6 +302,10 @@ def make(map_name: str, screen_size: specs.Size = 64, minimap_size: specs.Size =
       bot: a `game_env.Bot` opponent (backend "sc2"; e.g. for the full game). On maps
         other than the mini-games the reward defaults to the outcome (score_index -1)
         and episodes to PySC2's 30 game minutes (`LADDER_GAME_STEPS`), a tie.
+
+    Returns:
+      An `SC2Env` (num_envs None), a `BatchedSC2Env`, or for backend "sc2" a
+      `game_env.GameEnv`.
 
     Raises:
       ValueError: for an unknown map or a bad setting, before anything is compiled.
@@ -334,8 +338,9 @@ def _make_game(map_name, screen_size, minimap_size, step_mul, num_envs, seed, sc
                score_multiplier, discount, ensure_available_actions, game_steps_per_episode,
                sc2path, bot):
     """`make` for the real game (backend "sc2")."""
-    from sc2jax.environment.game_env import GameEnv  # noqa: PLC0415 (needs protobuf)
-    from sc2jax.environment.launcher import launch  # noqa: PLC0415
+    # Imported here: game_env imports this module.
+    from sc2jax.environment.game_env import GameEnv
+    from sc2jax.environment.launcher import launch
 
     if num_envs is not None:
         raise ValueError(f"backend 'sc2' runs one game per environment; got num_envs="

@@ -51,6 +51,10 @@ SC2_NAMES = {
 }
 """The game's names of the simulator's unit types (`data` replies)."""
 
+SUPPORTED = ("ping", "create_game", "join_game", "restart_game", "leave_game", "quit",
+             "game_info", "data", "action", "step", "observation")
+"""The requests the simulator answers; the others get `Response.error`."""
+
 log = logging.getLogger(__name__)
 _PARAMS = EnvParams(game_steps_per_episode=np.int32(0))  # The map's own timer ends games.
 _STATUS = sc2api.Status
@@ -90,7 +94,7 @@ class GameService:
             response.id = request.id
         kind = request.WhichOneof("request")
         try:
-            handler = getattr(self, f"_{kind}", None) if kind else None
+            handler = getattr(self, f"_{kind}") if kind in SUPPORTED else None
             if handler is None:
                 raise RequestError(f"request {kind or '(empty)'!r} is not supported by the "
                                    f"sc2jax simulator")

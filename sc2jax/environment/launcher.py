@@ -165,7 +165,7 @@ def launch(path: str | os.PathLike | None = None, build: int | None = None, *,
     if platform.system() == "Linux":
         libs = str(root / "Libs")
         env["LD_LIBRARY_PATH"] = ":".join(p for p in (env.get("LD_LIBRARY_PATH"), libs) if p)
-    output = open(log_path, "ab") if log_path else subprocess.DEVNULL  # noqa: SIM115
+    output = open(log_path, "ab") if log_path else subprocess.DEVNULL
     try:
         process = subprocess.Popen(args, cwd=cwd, env=env, stdout=output,
                                    stderr=subprocess.STDOUT)

@@ -30,6 +30,7 @@ from websockets.exceptions import ConnectionClosed
 from websockets.sync.server import ServerConnection, serve
 
 from sc2jax.environment.game_service import GameService
+from sc2jax.environment.install_layout import write_sc2path
 from sc2jax.environment.protos import sc2api
 
 PATH = "/sc2api"
@@ -129,7 +130,6 @@ def main(argv: Sequence[str] | None = None,
          announce: Callable[[str], None] = lambda line: print(line, flush=True)) -> int:
     args, ignored = _parse(sys.argv[1:] if argv is None else argv)
     if args.write_sc2path:
-        from sc2jax.environment.install_layout import write_sc2path  # noqa: PLC0415
         announce(f"wrote {write_sc2path(args.write_sc2path)}")
         return 0
     if not 0 <= args.port <= 65535:
