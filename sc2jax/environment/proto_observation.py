@@ -22,6 +22,7 @@ import numpy as np
 
 from sc2jax.environment import observation_tables as tables
 from sc2jax.environment import specs
+from sc2jax.environment.availability import ALWAYS
 from sc2jax.environment.functions import FUNCTIONS, FunctionCall, FunctionType
 from sc2jax.environment.proto_actions import from_proto, to_proto
 from sc2jax.environment.protos import sc2api
@@ -40,8 +41,7 @@ for _f in FUNCTIONS:
     if _f.ability_id:
         _BY_ABILITY.setdefault(_f.ability_id, []).append(_f)
 _GENERAL = {(f.ability_id, f.function_type): f.id for f in FUNCTIONS if f.ability_id}
-_ALWAYS = [FUNCTIONS[name].id for name in
-           ("no_op", "move_camera", "select_point", "select_rect", "select_control_group")]
+_ALWAYS = [FUNCTIONS[name].id for name in ALWAYS]
 
 
 # Feature layers.
