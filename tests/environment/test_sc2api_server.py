@@ -17,6 +17,7 @@ import websocket
 from websockets.sync.server import serve
 
 from sc2jax.environment import make
+from sc2jax.environment import server as server_module
 from sc2jax.environment.agents.random_agent import random_action
 from sc2jax.environment.controller import Controller, RequestError
 from sc2jax.environment.dense import from_dense
@@ -305,3 +306,19 @@ def test_the_real_game_plays_move_to_beacon():
             "single_select"].shape[0] >= 1
     finally:
         env.close()
+
+
+def test_the_server_takes_the_games_command_line_and_writes_the_layout(tmp_path):
+    # `-headlessNoRender` must not be read as -h; the game's other arguments are ignored.
+    args, ignored = server_module._parse(
+        ["-listen", "127.0.0.1", "-port", "5123", "-dataDir", "/sc2/", "-tempDir", "/t/",
+         "-headlessNoRender", "-displayMode", "0"])
+    assert (args.host, args.port) == ("127.0.0.1", 5123)
+    assert "-headlessNoRender" in ignored and "-dataDir" in ignored
+    lines = []
+    assert server_module.main(["--write-sc2path", str(tmp_path / "layout")],
+                              announce=lines.append) == 0
+    assert lines == [f"wrote {tmp_path / 'layout'}"]
+    assert (tmp_path / "layout" / "Versions" / "Base75689" / "SC2_x64").is_file()
+    with pytest.raises(SystemExit, match="--port 70000 is outside 0..65535"):
+        server_module.main(["--port", "70000"])
