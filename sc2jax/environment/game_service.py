@@ -38,6 +38,9 @@ from sc2jax.environment.units import UNIT_DATA, UnitType
 
 GAME_VERSION = "4.10.0"
 BASE_BUILD = 75689
+RESET_STEP_MUL = 8
+"""The step_mul of the simulator that starts episodes (any would do: the state does not
+depend on it; 8, PySC2's default, shares its compiled reset with SC2Env's)."""
 MAX_STEP_COUNT = 10_000
 """The most game loops one `RequestStep` may run here."""
 
@@ -83,7 +86,6 @@ class GameService:
         self._state = None
         self._last_observation = None
         self._pending: list[FunctionCall] = []
-        self._step_mul = 8
 
     # Dispatch.
 
@@ -278,8 +280,7 @@ class GameService:
     def _start(self) -> None:
         """Starts an episode with the next key, as `SC2Env.reset` does."""
         self._seed_key, key = jax.random.split(self._seed_key)
-        self._state, timestep = compiled(self._simulator(self._step_mul), False)[0](key,
-                                                                                  _PARAMS)
+        self._state, timestep = compiled(self._simulator(RESET_STEP_MUL), False)[0](key, _PARAMS)
         self._last_observation = timestep.observation
         self._pending = []
         self.status = _STATUS.in_game

@@ -104,10 +104,10 @@ class GameProcess:
     def running(self) -> bool:
         return self.process.poll() is None
 
-    def close(self, timeout_seconds: float = 10.0) -> None:
-        """Quits the game: RequestQuit, then terminate, then kill; removes its temp dir."""
+    def close(self) -> None:
+        """Quits the game: RequestQuit, then terminate, then kill (the controller's
+        `quit` calls `_stop`); removes its temp dir."""
         self.controller.quit()
-        self._stop(timeout_seconds)
 
     def _stop(self, timeout_seconds: float = 10.0) -> None:
         for stop in (None, self.process.terminate, self.process.kill):

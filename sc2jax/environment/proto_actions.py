@@ -15,18 +15,12 @@ from sc2jax.environment.protos import sc2api
 
 _T = FunctionType
 
-_BY_ABILITY: dict[tuple[int, FunctionType], int] = {}
-"""(ability id, function type) -> the function id a client sees (general if any)."""
-
-
-def _ability_table() -> None:
-    own = {(f.ability_id, f.function_type): f for f in FUNCTIONS if f.ability_id}
-    for (ability, ftype), func in own.items():
-        general = own.get((func.general_id, ftype)) if func.general_id else None
-        _BY_ABILITY[(ability, ftype)] = (general or func).id
-
-
-_ability_table()
+_OWN = {(f.ability_id, f.function_type): f for f in FUNCTIONS if f.ability_id}
+VISIBLE_FUNCTION: dict[tuple[int, FunctionType], int] = {
+    key: (_OWN[(f.general_id, key[1])] if f.general_id else f).id for key, f in _OWN.items()}
+"""(ability id, function type) -> the function id a client sees with
+`hide_specific_actions`: the general function of the same type, if the ability is a
+specific one (every specific function has one), else its own."""
 
 
 def to_proto(call: FunctionCall):
@@ -124,7 +118,7 @@ def from_proto(action) -> FunctionCall:
         if kind == "production_panel":
             return _call("build_queue", [[ui.production_panel.unit_index]])
         if kind == "toggle_autocast":
-            fid = _BY_ABILITY.get((ui.toggle_autocast.ability_id, _T.autocast))
+            fid = VISIBLE_FUNCTION.get((ui.toggle_autocast.ability_id, _T.autocast))
             return FunctionCall(fid, []) if fid is not None else _call("no_op", [])
     return _call("no_op", [])
 
@@ -133,7 +127,7 @@ def _command(command) -> FunctionCall:
     target = command.WhichOneof("target")
     ftype = {"target_screen_coord": _T.cmd_screen,
              "target_minimap_coord": _T.cmd_minimap}.get(target, _T.cmd_quick)
-    fid = _BY_ABILITY.get((command.ability_id, ftype))
+    fid = VISIBLE_FUNCTION.get((command.ability_id, ftype))
     if fid is None:
         return _call("no_op", [])
     args = [[int(command.queue_command)]]

@@ -24,7 +24,7 @@ from sc2jax.environment import observation_tables as tables
 from sc2jax.environment import specs
 from sc2jax.environment.availability import ALWAYS
 from sc2jax.environment.functions import FUNCTIONS, FunctionCall, FunctionType
-from sc2jax.environment.proto_actions import from_proto, to_proto
+from sc2jax.environment.proto_actions import VISIBLE_FUNCTION, from_proto, to_proto
 from sc2jax.environment.protos import sc2api
 
 CURRICULUM = 1
@@ -40,7 +40,6 @@ _BY_ABILITY: dict[int, list] = {}
 for _f in FUNCTIONS:
     if _f.ability_id:
         _BY_ABILITY.setdefault(_f.ability_id, []).append(_f)
-_GENERAL = {(f.ability_id, f.function_type): f.id for f in FUNCTIONS if f.ability_id}
 _ALWAYS = [FUNCTIONS[name].id for name in ALWAYS]
 
 
@@ -170,9 +169,7 @@ def available_actions(abilities, player: np.ndarray, panel: str | None,
             if func.general_id == 0 or not hide_specific_actions:
                 available.add(func.id)
             if func.general_id:
-                general = _GENERAL.get((func.general_id, func.function_type))
-                if general is not None:
-                    available.add(general)
+                available.add(VISIBLE_FUNCTION[(func.ability_id, func.function_type)])
     return np.array(sorted(available), np.int32)
 
 
