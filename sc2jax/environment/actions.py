@@ -81,8 +81,11 @@ _MAKES = {"Build_SupplyDepot_screen": UnitType.SUPPLY_DEPOT,
           "Build_CommandCenter_screen": UnitType.COMMAND_CENTER,
           "Train_SCV_quick": UnitType.SCV, "Train_Marine_quick": UnitType.MARINE}
 MAKES_TABLE = np.zeros(NUM_FUNCTIONS, np.int32)
+MAKE_ABILITY = np.zeros(len(UnitType), np.int32)
+"""The ability id that builds or trains each unit type (0 where none does)."""
 for _name, _type in _MAKES.items():
     MAKES_TABLE[FUNCTIONS[_name].id] = _type
+    MAKE_ABILITY[_type] = FUNCTIONS[_name].ability_id
 
 KIND_TABLE = np.zeros(NUM_FUNCTIONS, np.int32)
 for _name, _kind in _BY_NAME.items():

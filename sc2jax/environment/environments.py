@@ -313,8 +313,8 @@ def make(map_name: str, screen_size: specs.Size = 64, minimap_size: specs.Size =
     if backend == "sc2":
         return _make_game(map_name, screen_size, minimap_size, step_mul, num_envs, seed,
                           screen_features, minimap_features, use_feature_units, use_raw_units,
-                          score_index, score_multiplier, discount, ensure_available_actions,
-                          game_steps_per_episode, sc2path, bot)
+                          max_units, score_index, score_multiplier, discount,
+                          ensure_available_actions, game_steps_per_episode, sc2path, bot)
     if backend != "simulator":
         raise ValueError(f"backend {backend!r} is not allowed; expected 'simulator' or 'sc2'")
     if bot is not None or sc2path is not None:
@@ -334,7 +334,7 @@ def make(map_name: str, screen_size: specs.Size = 64, minimap_size: specs.Size =
 
 
 def _make_game(map_name, screen_size, minimap_size, step_mul, num_envs, seed, screen_features,
-               minimap_features, use_feature_units, use_raw_units, score_index,
+               minimap_features, use_feature_units, use_raw_units, max_units, score_index,
                score_multiplier, discount, ensure_available_actions, game_steps_per_episode,
                sc2path, bot):
     """`make` for the real game (backend "sc2")."""
@@ -345,8 +345,6 @@ def _make_game(map_name, screen_size, minimap_size, step_mul, num_envs, seed, sc
     if num_envs is not None:
         raise ValueError(f"backend 'sc2' runs one game per environment; got num_envs="
                          f"{num_envs!r} (use num_envs=None, and one process per game)")
-    if use_feature_units or use_raw_units:
-        raise ValueError("backend 'sc2' does not give feature_units or raw_units yet")
     if not isinstance(map_name, str) or not map_name:
         raise ValueError(f"map_name must be a non-empty str, got {map_name!r}")
     if map_name in MAPS:
@@ -357,7 +355,9 @@ def _make_game(map_name, screen_size, minimap_size, step_mul, num_envs, seed, sc
     return GameEnv(lambda: launch(sc2path).controller, map_name, map_path=map_path,
                    screen_size=screen_size, minimap_size=minimap_size,
                    screen_features=screen_features, minimap_features=minimap_features,
-                   bot=bot, step_mul=step_mul, game_steps_per_episode=game_steps_per_episode,
+                   use_feature_units=use_feature_units, use_raw_units=use_raw_units,
+                   max_units=max_units, bot=bot, step_mul=step_mul,
+                   game_steps_per_episode=game_steps_per_episode,
                    # On other maps the default is PySC2's: the outcome.
                    score_index=score_index if map_name in MAPS or score_index else -1,
                    score_multiplier=score_multiplier, discount=discount,

@@ -87,8 +87,9 @@ class GameEnv(dm_env.Environment):
       map_name: the map; a mini-game name or any map the game knows.
       map_path: the map's path for `create_game` (default `mini_games/<map>.SC2Map`).
       map_data: the map file's bytes, sent with the path (optional).
-      screen_size, minimap_size, screen_features, minimap_features: the observation
-        format, as for `make`.
+      screen_size, minimap_size, screen_features, minimap_features, use_feature_units,
+        use_raw_units, max_units: the observation format, as for `make` (the unit lists
+        come from the game's raw data; `max_units` only bounds `GameEnvBatch`'s padding).
       race: the agent's race.
       bot: an opponent (`Bot`), or None (the mini-games have none).
       step_mul: game loops per agent step.
@@ -111,7 +112,9 @@ class GameEnv(dm_env.Environment):
                  map_path: str | None = None, map_data: bytes = b"",
                  screen_size: specs.Size = 64, minimap_size: specs.Size = 64,
                  screen_features: Sequence[str] | None = None,
-                 minimap_features: Sequence[str] | None = None, race: str = "terran",
+                 minimap_features: Sequence[str] | None = None,
+                 use_feature_units: bool = False, use_raw_units: bool = False,
+                 max_units: int = 64, race: str = "terran",
                  bot: Bot | None = None, step_mul: int = 8, game_steps_per_episode: int = 0,
                  score_index: int | None = None, score_multiplier: float = 1.0,
                  discount: float = 1.0, discount_zero_after_timeout: bool = False,
@@ -140,7 +143,9 @@ class GameEnv(dm_env.Environment):
         self.fmt = specs.ObservationFormat(
             screen_size=screen_size, minimap_size=minimap_size,
             screen_features=None if screen_features is None else tuple(screen_features),
-            minimap_features=None if minimap_features is None else tuple(minimap_features))
+            minimap_features=None if minimap_features is None else tuple(minimap_features),
+            use_feature_units=use_feature_units, use_raw_units=use_raw_units,
+            max_units=max_units)
         self.map_name = map_name
         self._connect = connect
         self._map_path = map_path or f"mini_games/{map_name}.SC2Map"
@@ -165,6 +170,7 @@ class GameEnv(dm_env.Environment):
         self._last_step_type = None
         self._races = (self._race, 0)
         self._game_map_name = map_name
+        self._map_size: tuple[int, int] | None = None
 
     # dm_env.
 
@@ -256,6 +262,7 @@ class GameEnv(dm_env.Environment):
         controller.join_game(self._interface_options(), race=self._race)
         info = controller.game_info()
         self._game_map_name = info.map_name or self.map_name
+        self._map_size = (info.start_raw.map_size.x, info.start_raw.map_size.y)
         races = {p.player_id: p.race_requested for p in info.player_info
                  if p.type != sc2api.PlayerType.Value("Observer")}
         home = races.get(1, self._race)
@@ -264,7 +271,8 @@ class GameEnv(dm_env.Environment):
         self._in_game = True
 
     def _interface_options(self):
-        options = sc2api.InterfaceOptions(raw=False, score=True)
+        options = sc2api.InterfaceOptions(
+            raw=self.fmt.use_feature_units or self.fmt.use_raw_units, score=True)
         layers = options.feature_layer
         layers.width = 24
         layers.resolution.x, layers.resolution.y = self.fmt.screen_size
@@ -279,7 +287,8 @@ class GameEnv(dm_env.Environment):
             observation = self._last_obs  # The game's end-of-game stub.
         else:
             observation = proto_observation.decode(
-                response, self.fmt, self._game_map_name, self._races, self._hide_specific)
+                response, self.fmt, self._game_map_name, self._races, self._hide_specific,
+                self._map_size)
         self._last_obs = observation
         return observation, result
 

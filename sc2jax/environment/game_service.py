@@ -31,6 +31,7 @@ from sc2jax.environment.dense import to_dense
 from sc2jax.environment.environments import compiled, simulator
 from sc2jax.environment.functions import FUNCTIONS, FunctionCall, validate_function_call
 from sc2jax.environment.minigames import MAPS, get_map
+from sc2jax.environment.observation import api_units
 from sc2jax.environment.protos import sc2api
 from sc2jax.environment.simulator import EnvParams
 from sc2jax.environment.state import Outcome
@@ -71,6 +72,11 @@ class RequestError(Exception):
 @functools.cache
 def _act(sim):
     return jax.jit(sim.act)
+
+
+@functools.cache
+def _api_units(sim):
+    return jax.jit(lambda state: api_units(state, sim.renderer))
 
 
 class GameService:
@@ -269,8 +275,12 @@ class GameService:
         outcome = int(self._state.outcome)
         result = None if outcome == Outcome.RUNNING else outcome  # Result values match.
         response.observation.CopyFrom(proto_observation.encode(obs, self._fmt, result=result))
-        response.observation.observation.raw_data.player.camera.x = float(self._state.camera[0])
-        response.observation.observation.raw_data.player.camera.y = float(self._state.camera[1])
+        raw_data = response.observation.observation.raw_data
+        raw_data.player.camera.x = float(self._state.camera[0])
+        raw_data.player.camera.y = float(self._state.camera[1])
+        if self._options.raw:
+            units = jax.device_get(_api_units(self._simulator(RESET_STEP_MUL))(self._state))
+            proto_observation.encode_units(units, raw_data)
 
     # Internals.
 

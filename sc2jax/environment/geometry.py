@@ -43,6 +43,13 @@ class MapGeometry:
         return max(self.size)
 
 
+def _stack_xy(px, py):
+    """Stacks x and y pixel coordinates: numpy for numpy inputs (the SC2-API client
+    applies the transforms to the game's units), else jax.numpy."""
+    xp = np if isinstance(px, np.ndarray) and isinstance(py, np.ndarray) else jnp
+    return xp.stack([px, py], axis=-1)
+
+
 class Camera:
     """Pixel <-> world transforms for a screen of `(sx, sy)` pixels.
 
@@ -54,11 +61,14 @@ class Camera:
         self.pixels_per_unit = max(screen_size) / CAMERA_WIDTH
 
     def world_to_pixel(self, center, xy):
-        """float32[..., 2] world -> float32[..., 2] continuous screen pixel coords (x, y)."""
+        """float32[..., 2] world -> float32[..., 2] continuous screen pixel coords (x, y).
+
+        Jittable, and also takes numpy arrays (giving the same float32 values).
+        """
         sx, sy = self.size
         px = (xy[..., 0] - center[0]) * self.pixels_per_unit + sx / 2
         py = (center[1] - xy[..., 1]) * self.pixels_per_unit + sy / 2
-        return jnp.stack([px, py], axis=-1)
+        return _stack_xy(px, py)
 
     def pixel_to_world(self, center, pixel):
         """int[..., 2] pixel (x, y) -> float32[..., 2] world point at the pixel centre."""
@@ -82,17 +92,19 @@ class Camera:
 
 
 class Minimap:
-    """Pixel <-> world transforms for a minimap of `(mx, my)` pixels over the whole map."""
+    """Pixel <-> world transforms for a minimap of `(mx, my)` pixels over a whole map of
+    `map_size` (width, height) world units."""
 
-    def __init__(self, minimap_size: tuple[int, int], geometry: MapGeometry):
+    def __init__(self, minimap_size: tuple[int, int], map_size: tuple[int, int]):
         self.size = minimap_size
-        self.map_height = geometry.size[1]
-        self.pixels_per_unit = max(minimap_size) / geometry.max_dim
+        self.map_height = map_size[1]
+        self.pixels_per_unit = max(minimap_size) / max(map_size)
 
     def world_to_pixel(self, xy):
+        """As `Camera.world_to_pixel` (jittable, or numpy)."""
         px = xy[..., 0] * self.pixels_per_unit
         py = (self.map_height - xy[..., 1]) * self.pixels_per_unit
-        return jnp.stack([px, py], axis=-1)
+        return _stack_xy(px, py)
 
     def pixel_to_world(self, pixel):
         pixel = pixel.astype(jnp.float32) + 0.5

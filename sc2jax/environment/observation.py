@@ -7,6 +7,7 @@ import numpy as np
 
 from sc2jax.environment import observation_tables as tables
 from sc2jax.environment import production, specs
+from sc2jax.environment.actions import MAKE_ABILITY
 from sc2jax.environment.availability import (
     CARD_TABLE,
     army_count,
@@ -24,18 +25,29 @@ TERRAN = 1  # sc2api.proto Race.
 BASE_RADIUS = 10.0
 """Mineral fields within this distance of a Command Center belong to its base."""
 
-# The Train ability each trained unit type is queued with (`production_queue`).
-_TRAIN_ABILITY = np.zeros(len(UnitType), np.int32)
-for _unit, _function in ((UnitType.SCV, "Train_SCV_quick"),
-                         (UnitType.MARINE, "Train_Marine_quick")):
-    _TRAIN_ABILITY[_unit] = FUNCTIONS[_function].ability_id
+# The ability id the game reports for each `Order` in a unit's orders (the specific
+# ability, as the game does; BUILD and CONSTRUCT report the structure's Build ability).
+ORDER_ABILITY = np.zeros(len(Order), np.int32)
+for _order, _function in ((Order.MOVE, "Move_Move_screen"),
+                          (Order.ATTACK_MOVE, "Attack_Attack_screen"),
+                          (Order.ATTACK_UNIT, "Attack_Attack_screen"),
+                          (Order.PATROL, "Patrol_Patrol_screen"),
+                          (Order.HOLD, "HoldPosition_Hold_quick"),
+                          (Order.GATHER, "Harvest_Gather_SCV_screen"),
+                          (Order.RETURN, "Harvest_Return_SCV_quick")):
+    ORDER_ABILITY[_order] = FUNCTIONS[_function].ability_id
+
+
+def build_fraction(units: Units):
+    """float32[N]: construction progress in [0, 1] (1 for complete units)."""
+    build_time = jnp.asarray(UNIT_DATA.build_time)[units.type]
+    done = jnp.where(build_time > 0, units.progress / jnp.maximum(build_time, 1.0), 1.0)
+    return jnp.minimum(done, 1.0)
 
 
 def build_percent(units: Units):
     """int32[N]: construction progress in percent (100 for complete units)."""
-    build_time = jnp.asarray(UNIT_DATA.build_time)[units.type]
-    done = jnp.where(build_time > 0, units.progress / jnp.maximum(build_time, 1.0), 1.0)
-    return jnp.floor(jnp.minimum(done, 1.0) * 100).astype(jnp.int32)
+    return jnp.floor(build_fraction(units) * 100).astype(jnp.int32)
 
 
 def unit_vectors(units: Units):
@@ -74,7 +86,7 @@ def production_panel(units: Units, length: int):
         jnp.asarray(UNIT_DATA.max_health)[queue].astype(jnp.int32),
         jnp.asarray(UNIT_DATA.max_shields)[queue].astype(jnp.int32),
         jnp.zeros_like(queue), jnp.zeros_like(queue), percent], axis=-1)
-    ability = jnp.asarray(_TRAIN_ABILITY)[queue]
+    ability = jnp.asarray(MAKE_ABILITY)[queue]
     rows = jnp.stack([ability, percent], axis=-1)
     pad = lambda x: jnp.zeros((length, x.shape[1]), jnp.int32).at[:x.shape[0]].set(  # noqa: E731
         jnp.where(in_queue[:, None], x, 0)[:length])
@@ -142,52 +154,93 @@ def harvesters(units: Units):
     return assigned.astype(jnp.int32), ideal.astype(jnp.int32)
 
 
-def feature_units(units: Units, include, pixel_pos, pixel_radius, on_screen, length,
-                  with_tags: bool):
-    """int32[length, 46] `FeatureUnit` rows of the units where `include`, in slot order.
+def api_units(state: EnvState, renderer: Renderer) -> dict:
+    """Each unit slot as the SC2 API's `Unit` proto reports it in `raw_data.units`.
 
-    Coordinates and radii are in the pixels of `pixel_pos`/`pixel_radius` (screen for
-    `feature_units`, minimap for `raw_units`). Raw order ids are not reported (0).
+    Returns a dict of [N] arrays named as `FeatureUnit` columns where a column copies an
+    API value (health, facing in radians in [0, 2pi), weapon_cooldown in loops, ...),
+    plus the API values the other columns are computed from: `x`, `y` (world),
+    `radius` (world units), `build_progress` and `order_progress_0` (fractions),
+    `health_max`, `shield_max`, `energy_max`, and `order_abilities` int32[N, Q + B] (the
+    ability id of each order, then of each queued unit in training; 0 for none). `shown`
+    marks the units the player sees (those the API reports).
     """
     d = UNIT_DATA
+    units = state.units
     t = units.type
     n = units.num_slots
-    zeros = jnp.zeros(n, jnp.int32)
-    # A producer's training queue is its orders, as in the game.
-    order_length = jnp.sum(units.orders != Order.NONE, axis=1) + jnp.sum(units.queue != 0,
-                                                                           axis=1)
+    camera = renderer.camera
+    px, py = jnp.moveaxis(camera.world_to_pixel(state.camera, units.pos), -1, 0)
+    sx, sy = camera.size
+    build_or_construct = (units.orders == Order.BUILD) | (units.orders == Order.CONSTRUCT)
+    built = jnp.where(units.orders == Order.CONSTRUCT,
+                      t[jnp.clip(units.order_unit, 0, n - 1)], units.order_type)
+    order_abilities = jnp.concatenate([
+        jnp.where(build_or_construct, jnp.asarray(MAKE_ABILITY)[built],
+                  jnp.asarray(ORDER_ABILITY)[units.orders]),
+        jnp.asarray(MAKE_ABILITY)[units.queue]], axis=1)
+    # A producer's first order is the unit in training.
+    training = (units.orders[:, 0] == Order.NONE) & (units.queue[:, 0] != 0)
+    train_time = jnp.asarray(d.build_time)[units.queue[:, 0]]
     assigned, ideal = harvesters(units)
-    columns = {
+    return {
+        "shown": renderer.units_shown(state),
         "unit_type": jnp.asarray(d.sc2_id)[t],
         "alliance": player_relative(units.owner),
-        "health": jnp.ceil(units.health).astype(jnp.int32),
-        "shield": units.shields.astype(jnp.int32),
-        "energy": units.energy.astype(jnp.int32),
-        "build_progress": build_percent(units),
-        "health_ratio": ratio_255(units.health, jnp.asarray(d.max_health)[t]),
-        "shield_ratio": ratio_255(units.shields, jnp.asarray(d.max_shields)[t]),
-        "energy_ratio": ratio_255(units.energy, jnp.asarray(d.max_energy)[t]),
-        "display_type": jnp.ones(n, jnp.int32),
         "owner": units.owner,
-        "x": jnp.floor(pixel_pos[:, 0]).astype(jnp.int32),
-        "y": jnp.floor(pixel_pos[:, 1]).astype(jnp.int32),
-        "facing": units.facing.astype(jnp.int32),
-        "radius": pixel_radius.astype(jnp.int32),
-        "cloak": jnp.full(n, 3),
+        "tag": units.tag,
+        "health": units.health, "health_max": jnp.asarray(d.max_health)[t],
+        "shield": units.shields, "shield_max": jnp.asarray(d.max_shields)[t],
+        "energy": units.energy, "energy_max": jnp.asarray(d.max_energy)[t],
+        "build_progress": build_fraction(units),
+        "display_type": jnp.ones(n, jnp.int32),  # Visible.
+        "x": units.pos[:, 0], "y": units.pos[:, 1],
+        "facing": jnp.mod(units.facing, 2 * np.pi),
+        "radius": jnp.asarray(d.radius)[t],
+        "cloak": jnp.full(n, 3, jnp.int32),  # NotCloaked.
         "is_selected": units.selected.astype(jnp.int32),
-        "weapon_cooldown": units.cooldown.astype(jnp.int32),
-        "order_length": order_length.astype(jnp.int32),
-        "tag": units.tag if with_tags else zeros,
-        "is_on_screen": on_screen.astype(jnp.int32),
-        "mineral_contents": jnp.where(t == UnitType.MINERAL_FIELD, units.contents, 0),
-        "vespene_contents": jnp.where((t == UnitType.VESPENE_GEYSER) | (t == UnitType.REFINERY),
-                                      units.contents, 0),
+        "is_on_screen": ((px >= 0) & (px < sx) & (py >= 0) & (py < sy)).astype(jnp.int32),
+        "mineral_contents": jnp.where(t == UnitType.MINERAL_FIELD, units.contents,
+                                      0).astype(jnp.int32),
+        "vespene_contents": jnp.where((t == UnitType.VESPENE_GEYSER)
+                                      | (t == UnitType.REFINERY), units.contents,
+                                      0).astype(jnp.int32),
         "assigned_harvesters": assigned,
         "ideal_harvesters": ideal,
+        "weapon_cooldown": units.cooldown,
+        "order_abilities": order_abilities,
+        "order_length": jnp.sum(order_abilities != 0, axis=1).astype(jnp.int32),
+        "order_progress_0": jnp.where(training, units.queue_work / jnp.maximum(train_time, 1.0),
+                                      0.0),
     }
-    rows = jnp.stack([columns.get(f.name, zeros).astype(jnp.int32)
-                      for f in tables.FeatureUnit], axis=-1)
-    return _pad_rows(rows, include, length)
+
+
+def feature_unit_rows(api: dict, pixel_pos, pixel_radius, with_tags: bool, dtype=jnp.int32):
+    """[N, 46] `FeatureUnit` rows from `api_units`-style values, by PySC2's rules:
+    coordinates and radii in the pixels of `pixel_pos` (float[N, 2]) and
+    `pixel_radius` (float[N]) (screen for `feature_units`, minimap for `raw_units`),
+    ratios 0..255, progress in percent, tags only `with_tags`. Raw order ids are not
+    reported (0); columns missing from `api` are 0.
+
+    Works on jax arrays (the simulator) and numpy arrays (the SC2-API client), with
+    the same float32 arithmetic, so both give the same rows for the same values.
+    """
+    xp = np if isinstance(api["unit_type"], np.ndarray) else jnp
+    zeros = xp.zeros(api["unit_type"].shape, dtype)
+    computed = {
+        "build_progress": api["build_progress"] * 100,
+        "health_ratio": ratio_255(api["health"], api["health_max"]),
+        "shield_ratio": ratio_255(api["shield"], api["shield_max"]),
+        "energy_ratio": ratio_255(api["energy"], api["energy_max"]),
+        "x": xp.floor(pixel_pos[:, 0]),
+        "y": xp.floor(pixel_pos[:, 1]),
+        "radius": pixel_radius,
+        "tag": api["tag"] if with_tags else zeros,
+        "order_progress_0": api.get("order_progress_0", zeros) * 100,
+        "order_progress_1": api.get("order_progress_1", zeros) * 100,
+    }
+    return xp.stack([computed.get(f.name, api.get(f.name, zeros)).astype(dtype)
+                     for f in tables.FeatureUnit], axis=-1)
 
 
 def observe(state: EnvState, renderer: Renderer, card_table=CARD_TABLE) -> dict:
@@ -231,20 +284,18 @@ def observe(state: EnvState, renderer: Renderer, card_table=CARD_TABLE) -> dict:
         "available_actions": available_actions(units, card_table),
     }
     if fmt.use_feature_units or fmt.use_raw_units:
-        shown = renderer.units_shown(state)
-        camera = renderer.camera
-        screen_pos = camera.world_to_pixel(state.camera, units.pos)
-        sx, sy = camera.size
-        on_screen = ((screen_pos[:, 0] >= 0) & (screen_pos[:, 0] < sx)
-                     & (screen_pos[:, 1] >= 0) & (screen_pos[:, 1] < sy))
-        radius = jnp.asarray(UNIT_DATA.radius)[units.type]
+        api = api_units(state, renderer)
+        pos = units.pos
+        radius = api["radius"]
     if fmt.use_feature_units:
-        obs["feature_units"] = feature_units(
-            units, shown & on_screen, screen_pos, radius * camera.pixels_per_unit, on_screen,
-            fmt.max_units, with_tags=False)
+        camera = renderer.camera
+        rows = feature_unit_rows(api, camera.world_to_pixel(state.camera, pos),
+                                 radius * camera.pixels_per_unit, with_tags=False)
+        obs["feature_units"] = _pad_rows(rows, api["shown"] & (api["is_on_screen"] > 0),
+                                         fmt.max_units)
     if fmt.use_raw_units:
         minimap = renderer.minimap
-        obs["raw_units"] = feature_units(
-            units, shown, minimap.world_to_pixel(units.pos), radius * minimap.pixels_per_unit,
-            on_screen, fmt.max_units, with_tags=True)
+        rows = feature_unit_rows(api, minimap.world_to_pixel(pos),
+                                 radius * minimap.pixels_per_unit, with_tags=True)
+        obs["raw_units"] = _pad_rows(rows, api["shown"], fmt.max_units)
     return obs

@@ -24,6 +24,8 @@ from sc2jax.environment import observation_tables as tables
 from sc2jax.environment import specs
 from sc2jax.environment.availability import ALWAYS
 from sc2jax.environment.functions import FUNCTIONS, FunctionCall, FunctionType
+from sc2jax.environment.geometry import Camera, Minimap
+from sc2jax.environment.observation import feature_unit_rows
 from sc2jax.environment.proto_actions import VISIBLE_FUNCTION, from_proto, to_proto
 from sc2jax.environment.protos import sc2api
 
@@ -121,6 +123,89 @@ def _unit_vector(info) -> list[int]:
 
 def _rows(vectors, width: int) -> np.ndarray:
     return np.array(vectors, np.int32).reshape(-1, width)
+
+
+# Unit lists (`raw_data.units`).
+
+# API `Unit` fields copied straight into the `FeatureUnit` column of the same name.
+_UNIT_FIELDS = ("unit_type", "alliance", "owner", "display_type", "cloak", "is_selected",
+                "is_on_screen", "is_blip", "is_powered", "mineral_contents",
+                "vespene_contents", "cargo_space_taken", "cargo_space_max",
+                "assigned_harvesters", "ideal_harvesters", "attack_upgrade_level",
+                "armor_upgrade_level", "shield_upgrade_level", "buff_duration_remain",
+                "buff_duration_max")
+# Float fields, kept in float32 as on the wire (the simulator computes in float32 too).
+_UNIT_FLOATS = ("health", "health_max", "shield", "shield_max", "energy", "energy_max",
+                "build_progress", "facing", "radius", "weapon_cooldown")
+# Columns under another name in the API.
+_UNIT_RENAMED = {"hallucination": "is_hallucination", "active": "is_active"}
+
+
+def encode_units(api: dict, raw_data) -> None:
+    """Appends the shown units of `observation.api_units` (numpy) to `raw_data.units`,
+    in slot order."""
+    for i in np.flatnonzero(api["shown"]):
+        unit = raw_data.units.add()
+        for name in _UNIT_FIELDS + _UNIT_FLOATS:
+            if name in api:
+                setattr(unit, name, api[name][i].item())
+        unit.tag = int(api["tag"][i])
+        unit.pos.x, unit.pos.y = float(api["x"][i]), float(api["y"][i])
+        for k, ability_id in enumerate(api["order_abilities"][i][api["order_abilities"][i] != 0]):
+            order = unit.orders.add(ability_id=int(ability_id))
+            if k == 0 and api["order_progress_0"][i]:
+                order.progress = float(api["order_progress_0"][i])
+
+
+def _decode_api_units(units) -> dict:
+    """The `observation.api_units`-style [n] numpy columns of `Unit` protos (PySC2's
+    `full_unit_vec` reads the same fields)."""
+    tags = {u.tag: u.unit_type for u in units}
+    out = {name: np.array([getattr(u, name) for u in units], np.int64)
+           for name in _UNIT_FIELDS}
+    out.update({name: np.array([getattr(u, name) for u in units], np.float32)
+                for name in _UNIT_FLOATS})
+    out.update({column: np.array([getattr(u, name) for u in units], np.int64)
+                for column, name in _UNIT_RENAMED.items()})
+    out["tag"] = np.array([u.tag for u in units], np.uint64).astype(np.int64)
+    out["x"] = np.array([u.pos.x for u in units], np.float32)
+    out["y"] = np.array([u.pos.y for u in units], np.float32)
+    out["order_length"] = np.array([len(u.orders) for u in units], np.int64)
+    for k in range(2):
+        out[f"order_progress_{k}"] = np.array(
+            [u.orders[k].progress if len(u.orders) > k else 0 for u in units], np.float32)
+    for k in range(2):
+        out[f"buff_id_{k}"] = np.array(
+            [u.buff_ids[k] if len(u.buff_ids) > k else 0 for u in units], np.int64)
+    out["addon_unit_type"] = np.array(
+        [tags.get(u.add_on_tag, 0) if u.add_on_tag else 0 for u in units], np.int64)
+    return out
+
+
+def decode_units(units, fmt: specs.ObservationFormat, camera_center,
+                 map_size) -> dict:
+    """`feature_units` and/or `raw_units` (int64 [n, 46], as PySC2 gives them) of the
+    `Unit` protos of `raw_data.units`, as `fmt` asks.
+
+    `feature_units` are the units on screen, in screen pixels of the camera centred at
+    `camera_center` (world x, y); `raw_units` are all the units, in minimap pixels of a
+    map of `map_size` (width, height), with tags. Raw order ids are 0.
+    """
+    api = _decode_api_units(units)
+    pos = np.stack([api["x"], api["y"]], axis=-1)
+    out = {}
+    if fmt.use_feature_units:
+        camera = Camera(fmt.screen_size)
+        center = np.asarray(camera_center, np.float32)
+        rows = feature_unit_rows(api, camera.world_to_pixel(center, pos),
+                                 api["radius"] * camera.pixels_per_unit, False, np.int64)
+        out["feature_units"] = rows[api["is_on_screen"] != 0]
+    if fmt.use_raw_units:
+        minimap = Minimap(fmt.minimap_size, tuple(map_size))
+        out["raw_units"] = feature_unit_rows(api, minimap.world_to_pixel(pos),
+                                             api["radius"] * minimap.pixels_per_unit, True,
+                                             np.int64)
+    return out
 
 
 # Available actions.
@@ -263,7 +348,8 @@ def _encode_ui(obs: dict, ui) -> None:
 
 
 def decode(response, fmt: specs.ObservationFormat, map_name: str,
-           races: Sequence[int] = (1, 0), hide_specific_actions: bool = True) -> dict:
+           races: Sequence[int] = (1, 0), hide_specific_actions: bool = True,
+           map_size: tuple[int, int] | None = None) -> dict:
     """The observation dict in PySC2's layout (as `SC2Env` returns it).
 
     Args:
@@ -272,13 +358,16 @@ def decode(response, fmt: specs.ObservationFormat, map_name: str,
       map_name: the map's name, as `game_info` reports it.
       races: (home, away) requested races, from `game_info` (0: none).
       hide_specific_actions: see `available_actions`.
+      map_size: the map's (width, height) from `game_info` (`start_raw.map_size`);
+        needed for `raw_units`.
 
     Raises:
-      ValueError: if the reply does not fit the format (feature-layer sizes).
+      ValueError: if the reply does not fit the format (feature-layer sizes), or
+        `raw_units` are asked for without `map_size`.
     """
-    if fmt.use_feature_units or fmt.use_raw_units:
-        raise ValueError("feature_units and raw_units are not decoded from the SC2 API yet; "
-                         "use use_feature_units=False and use_raw_units=False")
+    if fmt.use_raw_units and not map_size:
+        raise ValueError(f"decoding raw_units needs the map size from game_info, got "
+                         f"map_size={map_size!r}")
     observation = response.observation
     common, score, ui = observation.player_common, observation.score, observation.ui_data
     player = np.array([getattr(common, f.name) for f in tables.Player], np.int32)
@@ -336,6 +425,10 @@ def decode(response, fmt: specs.ObservationFormat, map_name: str,
     out["away_race_requested"] = np.array([races[1]], np.int32)
     out["available_actions"] = available_actions(observation.abilities, player, panel,
                                                  hide_specific_actions)
+    if fmt.use_feature_units or fmt.use_raw_units:
+        camera = observation.raw_data.player.camera
+        out.update(decode_units(observation.raw_data.units, fmt, (camera.x, camera.y),
+                                map_size))
     out["map_name"] = map_name
     return out
 

@@ -71,8 +71,10 @@ def player_relative(owner):
 
 
 def ratio_255(value, maximum):
-    """int32: value / maximum mapped to 0..255 (0 where maximum is 0)."""
-    return jnp.where(maximum > 0, (value / jnp.maximum(maximum, 1e-6) * 255), 0).astype(jnp.int32)
+    """int32: value / maximum mapped to 0..255 (0 where maximum is 0). Jittable, or numpy
+    for numpy inputs (the same float32 arithmetic)."""
+    xp = np if isinstance(value, np.ndarray) else jnp
+    return xp.where(maximum > 0, (value / xp.maximum(maximum, 1e-6) * 255), 0).astype(xp.int32)
 
 
 def paint(pixel_pos, pixel_radius, rank, shown, size, box: int, with_density: bool = False):
@@ -181,7 +183,7 @@ class Renderer:
         self.fog = fog
         self.cheat_layers = cheat_layers
         self.camera = Camera(fmt.screen_size)
-        self.minimap = Minimap(fmt.minimap_size, geometry)
+        self.minimap = Minimap(fmt.minimap_size, geometry.size)
         self.zero_layers = frozenset(zero_layers)
         self.screen_box = box_size(max_radius * self.camera.pixels_per_unit)
         self.minimap_box = box_size(max_radius * self.minimap.pixels_per_unit)

@@ -5,13 +5,16 @@ dm_env wrappers, the functional API and the contract tests compile each map once
 """
 
 import functools
+import threading
 
 import jax
 import numpy as np
+import pytest
 
 from sc2jax.environment import EnvParams, ObservationFormat, Simulator, environments
 from sc2jax.environment.agents import random_action
 from sc2jax.environment.environments import simulator
+from sc2jax.environment.server import Sc2ApiServer
 
 SMALL_MAKE = dict(screen_size=32, minimap_size=32, use_feature_units=True, use_raw_units=True,
                   max_units=32)
@@ -55,3 +58,13 @@ def random_episode(sim: Simulator, seed: int, steps: int, start_loop: int = 0):
         timesteps.append(jax.device_get(ts))
         actions.append(jax.device_get(action))
     return first, timesteps, actions
+
+
+@pytest.fixture
+def server():
+    """A fresh SC2-API server per test (`GameEnv.close` quits it); compiled code is shared."""
+    server = Sc2ApiServer(port=0)
+    thread = threading.Thread(target=server.serve_forever, daemon=True)
+    thread.start()
+    yield server
+    server.shutdown()

@@ -107,3 +107,59 @@ def test_available_actions_follow_pysc2s_rules_for_the_games_specific_abilities(
                                                 hide_specific_actions=False)
     assert {"Attack_Attack_screen", "Attack_Attack_minimap"} <= {
         FUNCTIONS[int(i)].name for i in shown}
+
+
+def _game_units():
+    """A Barracks (64-bit tag, a tech lab, two Marines in training) on screen, and a
+    damaged Marine off screen, as the game reports them."""
+    response = sc2api.ResponseObservation()
+    raw = response.observation.raw_data
+    raw.player.camera.x, raw.player.camera.y = 40.0, 30.0
+    barracks = raw.units.add(
+        display_type=1, alliance=1, tag=4_303_355_905, unit_type=21, owner=1, facing=4.71,
+        radius=1.8125, build_progress=1.0, cloak=3, is_on_screen=True, is_powered=False,
+        is_active=True, health=1000.0, health_max=1000.0, add_on_tag=4_303_355_906)
+    barracks.pos.x, barracks.pos.y = 41.5, 27.5
+    barracks.orders.add(ability_id=560, progress=0.55)
+    barracks.orders.add(ability_id=560)
+    lab = raw.units.add(display_type=1, alliance=1, tag=4_303_355_906, unit_type=37,
+                        owner=1, radius=1.0, build_progress=0.25, cloak=3, is_on_screen=True,
+                        health=100.0, health_max=400.0)
+    lab.pos.x, lab.pos.y = 44.0, 27.0
+    marine = raw.units.add(display_type=1, alliance=4, tag=7, unit_type=48, owner=2,
+                           facing=1.5, radius=0.375, cloak=3, is_on_screen=False,
+                           health=29.7, health_max=45.0, weapon_cooldown=9.5,
+                           buff_ids=[5, 27])
+    marine.pos.x, marine.pos.y = 10.25, 60.0
+    return response
+
+
+def test_unit_lists_are_pysc2s_rows_of_the_games_units():
+    from sc2jax.environment.observation_tables import FeatureUnit as F
+    from sc2jax.environment.specs import ObservationFormat
+
+    fmt = ObservationFormat(screen_size=(48, 32), minimap_size=64, use_feature_units=True,
+                            use_raw_units=True)
+    obs = proto_observation.decode(_game_units(), fmt, "Simple64", map_size=(88, 96))
+    screen, raw = obs["feature_units"], obs["raw_units"]
+    assert screen.dtype == raw.dtype == np.int64
+    assert screen.shape == (2, len(F)) and raw.shape == (3, len(F))
+    barracks, lab, marine = raw
+    # Screen: 48 px span 24 world units (2 px per unit) centred on the camera.
+    assert screen[0, F.x] == (41.5 - 40) * 2 + 24 and screen[0, F.y] == (30 - 27.5) * 2 + 16
+    assert screen[0, F.radius] == 3 and screen[0, F.tag] == 0  # Tags in raw units only.
+    # Raw units: the minimap's 64 px span the map's longer side (96), y down.
+    assert (barracks[F.x], barracks[F.y]) == (int(41.5 * 64 / 96), int((96 - 27.5) * 64 / 96))
+    assert barracks[F.tag] == 4_303_355_905  # 64-bit tags survive.
+    assert barracks[F.facing] == 4 and barracks[F.order_length] == 2
+    assert barracks[F.order_progress_0] == 55 and barracks[F.order_progress_1] == 0
+    assert barracks[F.order_id_0] == 0  # Raw function ids are not reported.
+    assert barracks[F.addon_unit_type] == 37 and barracks[F.active] == 1
+    assert barracks[F.build_progress] == 100 and lab[F.build_progress] == 25
+    assert lab[F.health_ratio] == 63 and barracks[F.health_ratio] == 255
+    assert (marine[F.alliance], marine[F.owner], marine[F.is_on_screen]) == (4, 2, 0)
+    assert marine[F.health] == 29 and marine[F.health_ratio] == int(29.7 / 45 * 255)
+    assert marine[F.weapon_cooldown] == 9
+    assert (marine[F.buff_id_0], marine[F.buff_id_1]) == (5, 27)
+    with pytest.raises(ValueError, match="raw_units needs the map size"):
+        proto_observation.decode(_game_units(), fmt, "Simple64")
