@@ -21,17 +21,21 @@ from pysc2_evolved.agents import random_agent, scripted_agent  # noqa: E402
 from pysc2_evolved.env import sc2_env  # noqa: E402
 from pysc2_evolved.lib import features  # noqa: E402
 
-RUNS = [("MoveToBeacon", scripted_agent.MoveToBeacon, 0),
-        ("CollectMineralShards", scripted_agent.CollectMineralShards, 0),
-        ("DefeatRoaches", random_agent.RandomAgent, 0),
-        ("BuildMarines", random_agent.RandomAgent, 800)]  # 800 loops: a short look.
+UNITS = dict(use_feature_units=True, use_raw_units=True)
+RUNS = [("MoveToBeacon", scripted_agent.MoveToBeacon, 0, {}),
+        ("CollectMineralShards", scripted_agent.CollectMineralShards, 0, {}),
+        # Reads feature_units (the server's raw_data.units); raw_units are decoded too.
+        ("CollectMineralShards", scripted_agent.CollectMineralShardsFeatureUnits, 0, UNITS),
+        ("DefeatRoaches", scripted_agent.DefeatRoaches, 0, {}),
+        ("DefeatRoaches", random_agent.RandomAgent, 0, UNITS),
+        ("BuildMarines", random_agent.RandomAgent, 800, UNITS)]  # 800 loops: a short look.
 
 
 def main() -> None:
-    for map_name, agent_class, limit in RUNS:
+    for map_name, agent_class, limit, options in RUNS:
         agent = agent_class()
         interface = features.AgentInterfaceFormat(
-            feature_dimensions=features.Dimensions(screen=32, minimap=32))
+            feature_dimensions=features.Dimensions(screen=32, minimap=32), **options)
         with sc2_env.SC2Env(map_name=map_name, players=[sc2_env.Agent(sc2_env.Race.terran)],
                             agent_interface_format=interface, step_mul=8,
                             game_steps_per_episode=limit) as env:

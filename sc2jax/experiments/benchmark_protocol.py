@@ -11,7 +11,8 @@ functions, then uniform arguments) for `--steps` agent steps:
 
 It also times what one observation costs: encoding it (the server), parsing the
 serialized `Response` (protobuf's fast runtime) and decoding it into PySC2's observation
-dict (the client); and the split loop's actors: one `HostActor` acting with one batched
+dict (the client), and the same for each map's unit lists (`raw_data.units` into
+`feature_units` and `raw_units`); and the split loop's actors: one `HostActor` acting with one batched
 policy call for 1, 4 and 16 server processes (`GameEnvBatch`). Compilation is excluded
 (warm-up steps and a warm-up unroll).
 
@@ -21,6 +22,7 @@ policy call for 1, 4 and 16 server processes (`GameEnvBatch`). Compilation is ex
 from __future__ import annotations
 
 import concurrent.futures
+import dataclasses
 import statistics
 import tempfile
 import time
@@ -36,6 +38,7 @@ from sc2jax.environment.functions import FUNCTIONS, FunctionCall
 from sc2jax.environment.game_env import GameEnv, GameEnvBatch
 from sc2jax.environment.install_layout import write_sc2path
 from sc2jax.environment.launcher import launch
+from sc2jax.environment.observation import api_units
 from sc2jax.environment.protos import runtime, sc2api
 from sc2jax.experiments import trainer
 from sc2jax.experiments.config import TrainConfig
@@ -105,6 +108,32 @@ def observation_costs(controller: Controller, map_name: str, fmt,
     return {"bytes": len(data), **{k: statistics.median(v) for k, v in times.items()}}
 
 
+def unit_list_costs(map_name: str, fmt, repeats: int) -> dict[str, float]:
+    """The unit list of a map's first observation: its units, its bytes in
+    `raw_data.units`, and the median seconds to encode it (server) and to parse and
+    decode it into `feature_units` and `raw_units` (client)."""
+    fmt = dataclasses.replace(fmt, use_feature_units=True, use_raw_units=True)
+    sim = make(map_name, seed=0, screen_size=fmt.screen_size,
+               minimap_size=fmt.minimap_size).simulator
+    state = jax.jit(sim.reset)(jax.random.PRNGKey(0))[0]
+    api = jax.device_get(jax.jit(lambda s: api_units(s, sim.renderer))(state))
+    map_size = sim.renderer.geometry.size
+    times = {"encode": [], "decode": []}
+    for _ in range(repeats):
+        t0 = time.perf_counter()
+        raw = sc2api.ObservationRaw()
+        proto_observation.encode_units(api, raw)
+        data = raw.SerializeToString()
+        t1 = time.perf_counter()
+        units = sc2api.ObservationRaw.FromString(data).units
+        proto_observation.decode_units(units, fmt, tuple(state.camera.tolist()), map_size)
+        t2 = time.perf_counter()
+        times["encode"].append(t1 - t0)
+        times["decode"].append(t2 - t1)
+    return {"units": len(units), "bytes": len(data),
+            **{k: statistics.median(v) for k, v in times.items()}}
+
+
 def actor_steps_per_second(root, map_name: str, processes: int, agent_name: str,
                            sizes: dict, unroll_length: int, unrolls: int) -> float:
     """Agent steps per second of one `HostActor` acting, with batched inference, for
@@ -157,7 +186,7 @@ def main(argv: Sequence[str]) -> None:
                 env.close()
                 game.close()
             logging.info("%s: %.0f in process, %.0f through the protocol", name, local, remote)
-            rows.append((name, local, remote))
+            rows.append((name, local, remote, unit_list_costs(name, env.fmt, FLAGS.parses)))
     counts = [int(n) for n in FLAGS.actor_processes if int(n) > 0]
     actors = []
     with tempfile.TemporaryDirectory() as tmp:
@@ -179,12 +208,20 @@ def main(argv: Sequence[str]) -> None:
              f"- protobuf runtime: {runtime()}", "",
              "| Map | In process (agent steps/s) | Through the protocol (agent steps/s) | "
              "Ratio |", "|---|---:|---:|---:|"]
-    lines += [f"| {n} | {a:,.0f} | {b:,.0f} | {b / a:.2f} |" for n, a, b in rows]
+    lines += [f"| {n} | {a:,.0f} | {b:,.0f} | {b / a:.2f} |" for n, a, b, _ in rows]
     lines += ["", f"One {FLAGS.screen_size}x{FLAGS.minimap_size} observation of "
               f"{FLAGS.maps[0]} (every layer) is {costs['bytes']:,} bytes. The server "
               f"encodes it in {costs['encode'] * 1e3:.3f} ms; the client parses it in "
               f"{costs['parse'] * 1e3:.3f} ms and decodes it into PySC2's observation dict "
-              f"in {costs['decode'] * 1e3:.3f} ms (medians of {FLAGS.parses})."]
+              f"in {costs['decode'] * 1e3:.3f} ms (medians of {FLAGS.parses}).", "",
+              "Unit lists (`use_feature_units`, `use_raw_units`; the join's `raw`) add the "
+              "first observation's `raw_data.units`: the server encodes and serializes them, "
+              "the client parses them and builds both lists (medians of "
+              f"{FLAGS.parses}):", "",
+              "| Map | Units | Bytes | Encode (ms) | Parse + decode (ms) |",
+              "|---|---:|---:|---:|---:|"]
+    lines += [f"| {n} | {u['units']} | {u['bytes']:,} | {u['encode'] * 1e3:.3f} | "
+              f"{u['decode'] * 1e3:.3f} |" for n, _, _, u in rows]
     if actors:
         lines += ["", f"One `HostActor` acting for N server processes of {FLAGS.maps[0]} "
                   f"with one batched {FLAGS.actor_agent} policy call per step "
