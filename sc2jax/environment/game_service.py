@@ -173,9 +173,13 @@ class GameService:
             if layers.HasField("width") and abs(layers.width - 24) > 1e-6:
                 raise ValueError(f"feature_layer.width {layers.width} is not supported; the "
                                  f"simulator's camera is 24 world units wide")
+            # With `raw`, the format of a PySC2 client that asks for the unit lists, so
+            # the steps are that `SC2Env`'s program too (the rows themselves are built
+            # by the client from `raw_data.units`).
             fmt = specs.ObservationFormat(
                 screen_size=(layers.resolution.x, layers.resolution.y),
-                minimap_size=(layers.minimap_resolution.x, layers.minimap_resolution.y))
+                minimap_size=(layers.minimap_resolution.x, layers.minimap_resolution.y),
+                use_feature_units=options.raw, use_raw_units=options.raw)
         except ValueError as e:
             response.join_game.error = response.join_game.Error.Value("FeatureUnsupported")
             response.join_game.error_details = str(e)

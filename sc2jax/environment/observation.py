@@ -25,17 +25,32 @@ TERRAN = 1  # sc2api.proto Race.
 BASE_RADIUS = 10.0
 """Mineral fields within this distance of a Command Center belong to its base."""
 
-# The ability id the game reports for each `Order` in a unit's orders (the specific
-# ability, as the game does; BUILD and CONSTRUCT report the structure's Build ability).
+# The specific ability the game reports (in a unit's abilities and orders) for each
+# general ability of the simulator's Terran units: SCVs, Marines, Command Centers and
+# Barracks. Other abilities are their own.
+SPECIFIC_ABILITY = {FUNCTIONS[general].ability_id: FUNCTIONS[specific].ability_id
+                    for general, specific in (
+                        ("Attack_screen", "Attack_Attack_screen"),
+                        ("Move_screen", "Move_Move_screen"),
+                        ("Patrol_screen", "Patrol_Patrol_screen"),
+                        ("HoldPosition_quick", "HoldPosition_Hold_quick"),
+                        ("Stop_quick", "Stop_Stop_quick"),
+                        ("Harvest_Gather_screen", "Harvest_Gather_SCV_screen"),
+                        ("Harvest_Return_quick", "Harvest_Return_SCV_quick"),
+                        ("Rally_Workers_screen", "Rally_CommandCenter_screen"),
+                        ("Rally_Units_screen", "Rally_Building_screen"),
+                        ("Cancel_quick", "Cancel_BuildInProgress_quick"),
+                        ("Cancel_Last_quick", "Cancel_Queue5_quick"))}
+
+# The ability id the game reports for each `Order` in a unit's orders (BUILD and
+# CONSTRUCT report the structure's Build ability).
 ORDER_ABILITY = np.zeros(len(Order), np.int32)
-for _order, _function in ((Order.MOVE, "Move_Move_screen"),
-                          (Order.ATTACK_MOVE, "Attack_Attack_screen"),
-                          (Order.ATTACK_UNIT, "Attack_Attack_screen"),
-                          (Order.PATROL, "Patrol_Patrol_screen"),
-                          (Order.HOLD, "HoldPosition_Hold_quick"),
-                          (Order.GATHER, "Harvest_Gather_SCV_screen"),
-                          (Order.RETURN, "Harvest_Return_SCV_quick")):
-    ORDER_ABILITY[_order] = FUNCTIONS[_function].ability_id
+for _order, _function in ((Order.MOVE, "Move_screen"), (Order.ATTACK_MOVE, "Attack_screen"),
+                          (Order.ATTACK_UNIT, "Attack_screen"), (Order.PATROL, "Patrol_screen"),
+                          (Order.HOLD, "HoldPosition_quick"),
+                          (Order.GATHER, "Harvest_Gather_screen"),
+                          (Order.RETURN, "Harvest_Return_quick")):
+    ORDER_ABILITY[_order] = SPECIFIC_ABILITY[FUNCTIONS[_function].ability_id]
 
 
 def build_fraction(units: Units):

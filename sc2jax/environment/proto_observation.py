@@ -25,7 +25,7 @@ from sc2jax.environment import specs
 from sc2jax.environment.availability import ALWAYS
 from sc2jax.environment.functions import FUNCTIONS, FunctionCall, FunctionType
 from sc2jax.environment.geometry import Camera, Minimap
-from sc2jax.environment.observation import feature_unit_rows
+from sc2jax.environment.observation import SPECIFIC_ABILITY, feature_unit_rows
 from sc2jax.environment.proto_actions import VISIBLE_FUNCTION, from_proto, to_proto
 from sc2jax.environment.protos import sc2api
 
@@ -211,16 +211,15 @@ def decode_units(units, fmt: specs.ObservationFormat, camera_center,
 # Available actions.
 
 def available_abilities(mask: np.ndarray) -> list[tuple[int, bool]]:
-    """(ability_id, requires_point) pairs for the ability functions in a mask.
-
-    The server reports general ability ids (PySC2 maps them to the same functions as
-    the specific ids the game reports).
-    """
+    """(ability_id, requires_point) pairs for the ability functions in a mask, with the
+    specific ability ids the game reports for the simulator's units
+    (`observation.SPECIFIC_ABILITY`)."""
     pairs = []
     for fid in np.flatnonzero(mask):
         func = FUNCTIONS[int(fid)]
         if func.ability_id:
-            pair = (func.ability_id, func.function_type in _POINT_TYPES)
+            ability_id = SPECIFIC_ABILITY.get(func.ability_id, func.ability_id)
+            pair = (ability_id, func.function_type in _POINT_TYPES)
             if pair not in pairs:
                 pairs.append(pair)
     return pairs

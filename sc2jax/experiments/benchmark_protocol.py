@@ -12,9 +12,9 @@ functions, then uniform arguments) for `--steps` agent steps:
 It also times what one observation costs: encoding it (the server), parsing the
 serialized `Response` (protobuf's fast runtime) and decoding it into PySC2's observation
 dict (the client), and the same for each map's unit lists (`raw_data.units` into
-`feature_units` and `raw_units`); and the split loop's actors: one `HostActor` acting with one batched
-policy call for 1, 4 and 16 server processes (`GameEnvBatch`). Compilation is excluded
-(warm-up steps and a warm-up unroll).
+`feature_units` and `raw_units`); and the split loop's actors: one `HostActor` acting
+with one batched policy call for 1, 4 and 16 server processes (`GameEnvBatch`).
+Compilation is excluded (warm-up steps and a warm-up unroll).
 
     python -m sc2jax.experiments.benchmark_protocol --output=docs/benchmarks.md
 """

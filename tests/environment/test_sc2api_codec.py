@@ -109,6 +109,29 @@ def test_available_actions_follow_pysc2s_rules_for_the_games_specific_abilities(
         FUNCTIONS[int(i)].name for i in shown}
 
 
+def test_the_server_reports_the_games_specific_abilities():
+    from sc2jax.environment.observation import SPECIFIC_ABILITY
+
+    # Every general ability of the simulator's units maps to a specific one of its own
+    # general ability, so PySC2's rules give back the same functions.
+    for general, specific in SPECIFIC_ABILITY.items():
+        assert {f.general_id for f in FUNCTIONS if f.ability_id == specific} == {general}
+    card = ("Attack_screen", "Attack_minimap", "Harvest_Gather_screen", "Stop_quick",
+            "Smart_screen", "Build_Barracks_screen")
+    mask = np.zeros(len(FUNCTIONS), bool)
+    mask[[FUNCTIONS[name].id for name in card]] = True
+    abilities = proto_observation.available_abilities(mask)
+    assert sorted(abilities) == [(1, True), (4, False), (23, True), (295, True),
+                                 (321, True)]
+    player = np.zeros(11, np.int32)
+    general = proto_observation.available_actions(abilities, player, "single")
+    assert {FUNCTIONS[int(i)].name for i in general} >= set(card)
+    specific = proto_observation.available_actions(abilities, player, "single",
+                                                   hide_specific_actions=False)
+    assert {"Attack_Attack_screen", "Harvest_Gather_SCV_screen", "Stop_Stop_quick"} <= {
+        FUNCTIONS[int(i)].name for i in specific}
+
+
 def _game_units():
     """A Barracks (64-bit tag, a tech lab, two Marines in training) on screen, and a
     damaged Marine off screen, as the game reports them."""
