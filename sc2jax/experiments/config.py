@@ -9,12 +9,15 @@ from __future__ import annotations
 
 import dataclasses
 
+from sc2jax.environment.game_env import Bot
 from sc2jax.environment.minigames import MAPS
 from sc2jax.environment.specs import ObservationFormat
 from sc2jax.experiments.actor import function_mask
 from sc2jax.experiments.checks import check_non_negative_int, check_positive_int
 from sc2jax.losses.learner_loss import OFF_POLICY_CORRECTIONS
 from sc2jax.networks.factory import NETWORKS
+
+BACKENDS = ("simulator", "sc2")
 
 
 def _positive_float(name: str, value) -> None:
@@ -27,7 +30,14 @@ class TrainConfig:
     """A training run.
 
     Attributes:
-      map_name: the mini-game.
+      map_name: the mini-game (with backend "sc2", any map the game has).
+      backend: "simulator" (the compiled loop: environments, actors and learner in one
+        program) or "sc2": StarCraft II itself, one game process per environment,
+        stepped by a host actor thread that feeds the learner (the split loop; its
+        policy lags the learner's by up to 2 updates, which V-trace corrects).
+      bot: the built-in AI opponent on the real game, (race, difficulty[, build]) as
+        `game_env.Bot` takes them, e.g. ("terran", "easy") for the paper's full game;
+        None: no opponent (the mini-games).
       agent: the network: "atari", "fullyconv", "fullyconv_lstm" or "arfullyconv".
       screen_size, minimap_size: feature-layer resolutions (16..256).
       screen_features, minimap_features: layer names (None: all of them).
@@ -52,6 +62,8 @@ class TrainConfig:
     """
 
     map_name: str = "MoveToBeacon"
+    backend: str = "simulator"
+    bot: tuple[str, ...] | None = None
     agent: str = "fullyconv"
     screen_size: int = 64
     minimap_size: int = 64
@@ -77,8 +89,21 @@ class TrainConfig:
     eval_episodes: int = 100
 
     def __post_init__(self):
-        if self.map_name not in MAPS:
-            raise ValueError(f"unknown map {self.map_name!r}; allowed: {sorted(MAPS)}")
+        if self.backend not in BACKENDS:
+            raise ValueError(f"unknown backend {self.backend!r}; allowed: {list(BACKENDS)}")
+        if not isinstance(self.map_name, str) or not self.map_name:
+            raise ValueError(f"map_name must be a non-empty str, got {self.map_name!r}")
+        if self.backend == "simulator" and self.map_name not in MAPS:
+            raise ValueError(f"unknown map {self.map_name!r}; allowed: {sorted(MAPS)} (or "
+                             f"any map of the game with backend 'sc2')")
+        if self.bot is not None:
+            if self.backend != "sc2":
+                raise ValueError(f"bot {self.bot!r} needs backend 'sc2' (the simulator's "
+                                 f"mini-games have no opponent)")
+            if isinstance(self.bot, str) or not 1 <= len(self.bot) <= 3:
+                raise ValueError(f"bot must be (race, difficulty[, build]), got {self.bot!r}")
+            object.__setattr__(self, "bot", tuple(self.bot))
+            self.opponent().setup()  # checks the race, difficulty and build
         if self.agent not in NETWORKS:
             raise ValueError(f"unknown agent {self.agent!r}; allowed: {sorted(NETWORKS)}")
         if self.off_policy_correction not in OFF_POLICY_CORRECTIONS:
@@ -106,6 +131,10 @@ class TrainConfig:
             check_non_negative_int(name, getattr(self, name))
         self.observation_format()  # checks the resolutions and layer names
         function_mask(self.functions)  # checks the action set
+
+    def opponent(self) -> Bot | None:
+        """The `game_env.Bot` of `bot`."""
+        return None if self.bot is None else Bot(*self.bot)
 
     def observation_format(self) -> ObservationFormat:
         return ObservationFormat(screen_size=self.screen_size, minimap_size=self.minimap_size,

@@ -1,12 +1,15 @@
-r"""Evaluates an agent on a mini-game of the embedded simulator.
+r"""Evaluates an agent on a mini-game of the embedded simulator, or on StarCraft II.
 
     python -m sc2jax.experiments.evaluate --map=MoveToBeacon --agent=scripted \
         --episodes=100 --output=/tmp/eval.json
     python -m sc2jax.experiments.evaluate --run_dir=/tmp/runs/beacon --episodes=100
+    python -m sc2jax.experiments.evaluate --run_dir=/tmp/runs/beacon --backend=sc2 \
+        --num_envs=4
 
 The agent is random, scripted, or (with `--run_dir`) a trained network restored from
 a training run's last checkpoint (or `--checkpoint_step`), on the run's own map and
-observation format.
+observation format. With `--backend=sc2` the episodes are played in `--num_envs` game
+processes launched from `--sc2path`, each playing its share of the episodes in turn.
 
 Prints the mean, std and max episode score beside the paper's Table 1, and with
 `--output` writes them as JSON: `episodes`, `mean`, `std`, `max`, `min`, `scores` (every
@@ -15,6 +18,7 @@ episode's score) and the resolved `config`.
 
 from __future__ import annotations
 
+import dataclasses
 import sys
 import time
 
@@ -22,12 +26,19 @@ from absl import app, flags
 
 from sc2jax.environment import MAPS, make
 from sc2jax.environment.agents import required_format
+from sc2jax.environment.game_env import GameEnvBatch
 from sc2jax.experiments import evaluation, trainer
 from sc2jax.experiments.actor import actor_core
 from sc2jax.experiments.checkpoints import write_json_atomic
+from sc2jax.experiments.config import BACKENDS
 from sc2jax.experiments.paper import paper_rows
 
-_MAP = flags.DEFINE_string("map", "MoveToBeacon", f"Mini-game: one of {sorted(MAPS)}.")
+_MAP = flags.DEFINE_string("map", "MoveToBeacon", f"Mini-game: one of {sorted(MAPS)} "
+                           "(with --backend=sc2, any map the game has).")
+_BACKEND = flags.DEFINE_enum("backend", "simulator", list(BACKENDS),
+                             "'simulator' (embedded) or 'sc2' (StarCraft II, one game process "
+                             "per environment, from --sc2path).")
+_SC2PATH = flags.DEFINE_string("sc2path", None, "The game's install (default $SC2PATH).")
 _AGENT = flags.DEFINE_string("agent", "random", f"Agent: one of {list(evaluation.AGENTS)}.")
 _EPISODES = flags.DEFINE_integer("episodes", 100, "Episodes to run.")
 _NUM_ENVS = flags.DEFINE_integer("num_envs", 64, "Environments run together per batch.")
@@ -45,8 +56,9 @@ _TEMPERATURE = flags.DEFINE_float("temperature", 1.0, "Softmax temperature of a 
 
 def check_flags() -> None:
     """Raises ValueError for bad flag values, before anything is compiled."""
-    if _MAP.value not in MAPS:
-        raise ValueError(f"--map={_MAP.value!r} is unknown; allowed: {sorted(MAPS)}")
+    if _MAP.value not in MAPS and (_BACKEND.value != "sc2" or not _MAP.value):
+        raise ValueError(f"--map={_MAP.value!r} is unknown; allowed: {sorted(MAPS)} (or any "
+                         f"map of the game with --backend=sc2)")
     if _AGENT.value not in evaluation.AGENTS:
         raise ValueError(f"--agent={_AGENT.value!r} is unknown; allowed: "
                          f"{list(evaluation.AGENTS)}")
@@ -64,29 +76,59 @@ def main(argv) -> None:
     except ValueError as error:
         sys.exit(f"error: {error}")
     start = time.time()
+    on_game = _BACKEND.value == "sc2"
     if _RUN_DIR.value:
         try:
             trained, params, meta = trainer.load_run(_RUN_DIR.value, _STEP.value)
         except (FileNotFoundError, ValueError) as error:
             sys.exit(f"error: {error}")
-        sim, agent_name, map_name = trained.sim, trained.config.agent, trained.config.map_name
-        core = actor_core(trained.network, _TEMPERATURE.value, trained.config.functions)
+        config, agent_name = trained.config, trained.config.agent
+        core = actor_core(trained.network, _TEMPERATURE.value, config.functions)
         print(f"Restored {agent_name} after {meta['env_steps']} agent steps from "
               f"{_RUN_DIR.value}")
+        if on_game:
+            games = trainer.launch_games(
+                dataclasses.replace(config, backend="sc2", num_envs=_NUM_ENVS.value,
+                                    seed=_SEED.value), _SC2PATH.value)
+            act = evaluation.host_core(core, params)
+            carry = core.initial_carry(_NUM_ENVS.value)
+        else:
+            try:
+                sim = trainer.build(dataclasses.replace(config, backend="simulator",
+                                                        bot=None)).sim
+            except ValueError as error:
+                sys.exit(f"error: {error}")
 
-        def run(on_batch):
-            return evaluation.run_core_episodes(sim, core, params, _EPISODES.value,
-                                                _NUM_ENVS.value, _SEED.value, on_batch)
+            def run(on_batch):
+                return evaluation.run_core_episodes(sim, core, params, _EPISODES.value,
+                                                    _NUM_ENVS.value, _SEED.value, on_batch)
+        map_name = config.map_name
     else:
         extra = required_format(_MAP.value) if _AGENT.value == "scripted" else {}
-        env = make(_MAP.value, screen_size=_SCREEN.value, minimap_size=_MINIMAP.value,
-                   step_mul=_STEP_MUL.value, **extra)
-        sim, agent_name, map_name = env.simulator, _AGENT.value, _MAP.value
-        policy = evaluation.make_policy(agent_name, sim)
+        sizes = dict(screen_size=_SCREEN.value, minimap_size=_MINIMAP.value,
+                     step_mul=_STEP_MUL.value, **extra)
+        agent_name, map_name = _AGENT.value, _MAP.value
+        if on_game:
+            games = GameEnvBatch([make(map_name, seed=_SEED.value + i, backend="sc2",
+                                       sc2path=_SC2PATH.value, **sizes)
+                                  for i in range(_NUM_ENVS.value)])
+            act = evaluation.host_policy(
+                evaluation.make_policy(agent_name, map_name, games.fmt))
+            carry = None
+        else:
+            sim = make(map_name, **sizes).simulator
+            policy = evaluation.make_policy(agent_name, map_name, sim.fmt)
 
+            def run(on_batch):
+                return evaluation.run_episodes(sim, policy, _EPISODES.value,
+                                               _NUM_ENVS.value, _SEED.value, on_batch)
+    if on_game:
         def run(on_batch):
-            return evaluation.run_episodes(sim, policy, _EPISODES.value, _NUM_ENVS.value,
-                                           _SEED.value, on_batch)
+            try:
+                return evaluation.run_host_episodes(games, act, carry, _EPISODES.value,
+                                                    _SEED.value, on_batch)
+            finally:
+                games.close()
 
     def progress(stats: evaluation.EpisodeStats) -> None:
         s = stats.summary
@@ -101,12 +143,13 @@ def main(argv) -> None:
     print(f"\n{map_name}, {agent_name} agent: mean {s['mean']:.2f} ± {s['std']:.2f} (std), "
           f"max {s['max']:g}, over {s['episodes']} episodes "
           f"[{time.time() - start:.0f} s]")
-    print("The paper's Table 1:")
-    print(paper_rows(map_name))
+    if map_name in MAPS:
+        print("The paper's Table 1:")
+        print(paper_rows(map_name))
     if _OUTPUT.value:
         config = {flag.name: flag.value for flag in (
-            _MAP, _AGENT, _EPISODES, _NUM_ENVS, _SCREEN, _MINIMAP, _STEP_MUL, _SEED,
-            _RUN_DIR, _STEP, _TEMPERATURE)}
+            _MAP, _BACKEND, _AGENT, _EPISODES, _NUM_ENVS, _SCREEN, _MINIMAP, _STEP_MUL,
+            _SEED, _RUN_DIR, _STEP, _TEMPERATURE)}
         write_json_atomic(_OUTPUT.value, {**s, "scores": stats.scores.tolist(),
                                           "steps": stats.steps.tolist(), "config": config})
         print(f"Wrote {_OUTPUT.value}")

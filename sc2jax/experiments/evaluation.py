@@ -3,6 +3,9 @@
 A policy is a pure function `(key, observation) -> DenseAction` of one environment's
 padded observation; it is vmapped over `num_envs` environments that run one episode
 each inside a `lax.scan`, so a batch of episodes is a single jitted call.
+
+`run_host_episodes` evaluates on environments outside JAX (the real game's
+`game_env.GameEnvBatch`), stepping them from the host.
 """
 
 from __future__ import annotations
@@ -10,7 +13,9 @@ from __future__ import annotations
 import dataclasses
 import functools
 from collections.abc import Callable
+from typing import Any
 
+import dm_env
 import jax
 import jax.numpy as jnp
 import numpy as np
@@ -18,6 +23,7 @@ import numpy as np
 from sc2jax.environment.agents import random_action, scripted_policy
 from sc2jax.environment.dense import DenseAction
 from sc2jax.environment.simulator import Simulator
+from sc2jax.environment.specs import ObservationFormat
 from sc2jax.experiments.checks import check_positive_int
 
 Policy = Callable[[jax.Array, dict], DenseAction]
@@ -25,18 +31,18 @@ Policy = Callable[[jax.Array, dict], DenseAction]
 AGENTS = ("random", "scripted")
 
 
-def make_policy(agent: str, sim: Simulator) -> Policy:
+def make_policy(agent: str, map_name: str, fmt: ObservationFormat) -> Policy:
     """A policy without parameters by name: "random" (the paper's random policy) or
-    "scripted" (the map's scripted agent).
+    "scripted" (the map's scripted agent), for observations of `fmt`.
 
     Raises:
       ValueError: for an unknown agent, or a map or format the agent cannot play.
     """
     if agent == "random":
-        types = sim.fmt.types
+        types = fmt.types
         return lambda key, obs: random_action(key, obs["available_actions"], types)
     if agent == "scripted":
-        return scripted_policy(sim.map_name, sim.fmt)
+        return scripted_policy(map_name, fmt)
     raise ValueError(f"unknown agent {agent!r}; allowed: {list(AGENTS)}")
 
 
@@ -183,3 +189,79 @@ def run_core_episodes(sim: Simulator, core, params, episodes: int, num_envs: int
     num_envs = min(num_envs, episodes)
     batch = _core_episode_batch(sim, core, num_envs)
     return _collect(sim, lambda key: batch(params, key), episodes, num_envs, seed, on_batch)
+
+
+HostAct = Callable[[jax.Array, Any, dict, np.ndarray], tuple[Any, DenseAction]]
+
+
+def host_policy(policy: Policy) -> HostAct:
+    """A `Policy` as a `HostAct` for `run_host_episodes` (batched, jitted, no carry)."""
+    batched = jax.jit(lambda key, obs: jax.vmap(policy)(
+        jax.random.split(key, jnp.shape(obs["available_actions"])[0]), obs))
+    return lambda key, carry, obs, first: (carry, batched(key, obs))
+
+
+def host_core(core, params) -> HostAct:
+    """A network's `ActorCore` with its parameters as a `HostAct`."""
+    act = jax.jit(lambda params, key, carry, obs, first: core.act(
+        params, key, carry, core.observe(obs), first)[:2])
+    return lambda key, carry, obs, first: act(params, key, carry, obs, first)
+
+
+def run_host_episodes(env: dm_env.Environment, act: HostAct, carry: Any, episodes: int,
+                      seed: int = 0,
+                      on_batch: Callable[[EpisodeStats], None] | None = None
+                      ) -> EpisodeStats:
+    """Runs `episodes` full episodes in a batched environment stepped on the host.
+
+    Each of the B environments plays ceil(episodes / B) episodes from a reset, and the
+    stats take every environment's first episode, then every second one, and so on, so
+    short episodes are not favoured over long ones.
+
+    Args:
+      env: a batched dm_env environment with auto-reset (`game_env.GameEnvBatch`):
+        padded observations [B, ...], a batched `DenseAction` in.
+      act: `(key, carry, observation [B, ...], first bool[B]) -> (carry, action [B])`
+        (`host_policy`, `host_core`).
+      carry: the acting carry for B environments (None for feed-forward acting).
+      episodes: how many episodes (>= 1).
+      seed: the acting RNG seed.
+      on_batch: called with the stats so far each time every environment has finished
+        one more episode.
+
+    Returns:
+      The episodes' stats.
+    """
+    check_positive_int("episodes", episodes)
+    timestep = env.reset()
+    num_envs = int(np.shape(timestep.step_type)[0])
+    per_env = -(-episodes // num_envs)
+    scores = [[] for _ in range(num_envs)]
+    lengths = [[] for _ in range(num_envs)]
+    score, length = np.zeros(num_envs), np.zeros(num_envs, np.int64)
+    key = jax.random.PRNGKey(seed)
+    rounds = 0
+
+    def stats() -> EpisodeStats:
+        done = min(map(len, scores))
+        order = [(i, k) for k in range(done) for i in range(num_envs)][:episodes]
+        return EpisodeStats(np.array([scores[i][k] for i, k in order], np.float64),
+                            np.array([lengths[i][k] for i, k in order], np.int64))
+
+    while min(map(len, scores)) < per_env:
+        first = np.asarray(timestep.step_type) == dm_env.StepType.FIRST
+        key, act_key = jax.random.split(key)
+        carry, action = act(act_key, carry, timestep.observation, first)
+        timestep = env.step(jax.device_get(action))
+        step_type = np.asarray(timestep.step_type)
+        score += np.asarray(timestep.reward, np.float64)
+        length += 1
+        for i in np.flatnonzero(step_type == dm_env.StepType.LAST):
+            scores[i].append(float(score[i]))
+            lengths[i].append(int(length[i]))
+        score[step_type != dm_env.StepType.MID] = 0.0
+        length[step_type != dm_env.StepType.MID] = 0
+        if on_batch is not None and min(map(len, scores)) > rounds:
+            rounds = min(map(len, scores))
+            on_batch(stats())
+    return stats()

@@ -1,16 +1,17 @@
 """The split loop: actors step non-JAX environments outside the compiled program and
 feed the same learner.
 
-    learner_state = run_split_loop(env, agent, learner_state, num_updates)
+    learner_state, metrics = run_split_loop(actor, learner, learner_state, num_updates)
 
 A `HostActor` drives any batched `dm_env.Environment` whose timesteps carry padded
 observations with a leading batch dimension and which takes a batched `DenseAction`
-(`BatchedSC2Env`, and the real-game backend later). It acts with the jitted
+(`BatchedSC2Env`, and the real game's `game_env.GameEnvBatch`). It acts with the jitted
 `ActorCore.act`, collects K steps and emits the learner's `Trajectory` with the
-behaviour log-probabilities. `run_split_loop` runs the actor in a thread that always
-acts with the newest parameters the learner has published; the learner consumes
-trajectories from a bounded queue, so the acting policy lags the learned one by up to
-`queue_size` updates, which the V-trace loss corrects (`off_policy_correction="vtrace"`).
+behaviour log-probabilities. A `SplitLoop` (or `run_split_loop`) runs the actor in a
+thread that always acts with the newest parameters the learner has published; the
+learner consumes trajectories from a bounded queue, so the acting policy lags the
+learned one by up to `queue_size` updates, which the V-trace loss corrects
+(`off_policy_correction="vtrace"`).
 """
 
 from __future__ import annotations
@@ -89,16 +90,80 @@ class HostActor:
         self._returns[step_type != dm_env.StepType.MID] = 0.0
 
 
-def run_split_loop(actor: HostActor, learner: Learner, state: LearnerState,
-                   num_updates: int, *, queue_size: int = 2) -> tuple[LearnerState, list]:
-    """Trains with an actor thread feeding the learner through a bounded queue.
+class SplitLoop:
+    """An actor thread that acts with the newest parameters the learner has published
+    and feeds it trajectories through a bounded queue; `run` applies updates from them.
+    The thread keeps acting between calls to `run` (e.g. while the caller logs or
+    checkpoints), so no trajectory is thrown away until `close`.
 
     Args:
       actor: the host actor (its environment is only touched by the actor thread).
       learner: the learner (use the V-trace loss for lagging actors).
-      state: the learner state to start from.
-      num_updates: updates to apply.
+      params: the parameters to act with until the first update.
       queue_size: trajectories that may wait for the learner (the policy lag).
+    """
+
+    def __init__(self, actor: HostActor, learner: Learner, params: Any, *,
+                 queue_size: int = 2):
+        check_positive_int("queue_size", queue_size)
+        self._trajectories: queue.Queue = queue.Queue(maxsize=queue_size)
+        self._latest = {"params": params}
+        self._stop = threading.Event()
+        self._errors: list[BaseException] = []
+        self._update = jax.jit(learner.update)
+        self._thread = threading.Thread(target=self._act, args=(actor,),
+                                        name="sc2jax-host-actor", daemon=True)
+        self._thread.start()
+
+    def _act(self, actor: HostActor) -> None:
+        try:
+            while not self._stop.is_set():
+                trajectory = actor.unroll(self._latest["params"])
+                while not self._stop.is_set():
+                    try:
+                        self._trajectories.put(trajectory, timeout=0.1)
+                        break
+                    except queue.Full:
+                        continue
+        except BaseException as error:  # re-raised in the learner's thread
+            self._errors.append(error)
+            self._stop.set()
+
+    def run(self, state: LearnerState, num_updates: int) -> tuple[LearnerState, list]:
+        """Applies `num_updates` updates; returns the new state and each update's metrics.
+
+        Raises:
+          Whatever the actor thread raised.
+        """
+        check_positive_int("num_updates", num_updates)
+        metrics = []
+        while len(metrics) < num_updates:
+            if self._errors:
+                raise self._errors[0]
+            try:
+                trajectory = self._trajectories.get(timeout=0.1)
+            except queue.Empty:
+                continue
+            state, m = self._update(state, trajectory)
+            self._latest["params"] = state.params
+            metrics.append(jax.device_get(m))
+        return state, metrics
+
+    def close(self) -> None:
+        """Stops the actor thread (after its current unroll)."""
+        self._stop.set()
+        self._thread.join()
+
+    def __enter__(self) -> SplitLoop:
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.close()
+
+
+def run_split_loop(actor: HostActor, learner: Learner, state: LearnerState,
+                   num_updates: int, *, queue_size: int = 2) -> tuple[LearnerState, list]:
+    """Trains for `num_updates` updates with a `SplitLoop`.
 
     Returns:
       (the final learner state, the metrics of every update).
@@ -107,43 +172,5 @@ def run_split_loop(actor: HostActor, learner: Learner, state: LearnerState,
       Whatever the actor thread raised.
     """
     check_positive_int("num_updates", num_updates)
-    trajectories: queue.Queue = queue.Queue(maxsize=queue_size)
-    latest = {"params": state.params}
-    stop = threading.Event()
-    errors: list[BaseException] = []
-
-    def act() -> None:
-        try:
-            while not stop.is_set():
-                trajectory = actor.unroll(latest["params"])
-                while not stop.is_set():
-                    try:
-                        trajectories.put(trajectory, timeout=0.1)
-                        break
-                    except queue.Full:
-                        continue
-        except BaseException as error:  # re-raised in the learner's thread
-            errors.append(error)
-            stop.set()
-
-    thread = threading.Thread(target=act, name="sc2jax-host-actor", daemon=True)
-    thread.start()
-    update = jax.jit(learner.update)
-    metrics = []
-    try:
-        while len(metrics) < num_updates:
-            if errors:
-                raise errors[0]
-            try:
-                trajectory = trajectories.get(timeout=0.1)
-            except queue.Empty:
-                continue
-            state, m = update(state, trajectory)
-            latest["params"] = state.params
-            metrics.append(jax.device_get(m))
-    finally:
-        stop.set()
-        thread.join()
-    if errors:
-        raise errors[0]
-    return state, metrics
+    with SplitLoop(actor, learner, state.params, queue_size=queue_size) as loop:
+        return loop.run(state, num_updates)

@@ -48,13 +48,17 @@ def random_search(config: TrainConfig, num_policies: int, *, temperature: float 
       {"policy_means": [...], "policy_max": [...], "best_policy", "best_mean", "max"}.
 
     Raises:
-      ValueError: for non-positive counts or temperature.
+      ValueError: for non-positive counts or temperature, or a config not on the
+        simulator.
     """
     for name, value in (("num_policies", num_policies), ("episodes", episodes),
                         ("policies_per_batch", policies_per_batch)):
         check_positive_int(name, value)
     if not temperature > 0:
         raise ValueError(f"temperature must be > 0, got {temperature!r}")
+    if config.backend != "simulator":
+        raise ValueError(f"random search evaluates its policies in one compiled program on "
+                         f"the simulator; backend {config.backend!r} is not allowed")
     agent = build(config)
     core = actor_core(agent.network, temperature)
     obs = jax.eval_shape(lambda: jax.vmap(agent.sim.reset)(

@@ -1,7 +1,10 @@
-r"""Trains an agent on a mini-game of the embedded simulator, then evaluates it.
+r"""Trains an agent on a mini-game of the embedded simulator (or on StarCraft II
+itself), then evaluates it.
 
     python -m sc2jax.experiments.train --map=MoveToBeacon --agent=fullyconv \
         --total_steps=5000000 --run_dir=/tmp/runs/beacon
+    python -m sc2jax.experiments.train --backend=sc2 --num_envs=8 ...   # the real game
+    python -m sc2jax.experiments.train --backend=sc2 --map=Simple64 --bot=terran,easy
 
 Defaults follow the paper: 64x64 feature layers, step_mul 8, K = 40, entropy 1e-3,
 RMSProp with the learning rate annealed linearly to half. The run directory gets the
@@ -20,7 +23,7 @@ import tempfile
 from absl import app, flags
 
 from sc2jax.environment import MAPS
-from sc2jax.experiments.config import TrainConfig, parse_names
+from sc2jax.experiments.config import BACKENDS, TrainConfig, parse_names
 from sc2jax.experiments.paper import paper_rows
 from sc2jax.experiments.trainer import train
 from sc2jax.networks.factory import NETWORKS
@@ -29,7 +32,14 @@ _DEFAULTS = TrainConfig()
 
 _RUN_DIR = flags.DEFINE_string("run_dir", None, "The run's directory (default: a new "
                                "temporary one). An existing run there is resumed.")
-_MAP = flags.DEFINE_string("map", _DEFAULTS.map_name, f"Mini-game: one of {sorted(MAPS)}.")
+_MAP = flags.DEFINE_string("map", _DEFAULTS.map_name, f"Mini-game: one of {sorted(MAPS)} "
+                           "(with --backend=sc2, any map the game has).")
+_BACKEND = flags.DEFINE_enum("backend", _DEFAULTS.backend, list(BACKENDS),
+                             "'simulator' (embedded) or 'sc2' (StarCraft II, one game process "
+                             "per environment, from --sc2path).")
+_SC2PATH = flags.DEFINE_string("sc2path", None, "The game's install (default $SC2PATH).")
+_BOT = flags.DEFINE_string("bot", None, "A built-in AI opponent on the real game: "
+                           "race,difficulty[,build], e.g. terran,easy.")
 _AGENT = flags.DEFINE_string("agent", _DEFAULTS.agent, f"Network: one of {sorted(NETWORKS)}.")
 _SCREEN = flags.DEFINE_integer("screen_size", _DEFAULTS.screen_size,
                                "Feature-screen resolution (16..256).")
@@ -73,9 +83,13 @@ _EVAL = flags.DEFINE_integer("eval_episodes", _DEFAULTS.eval_episodes,
 
 def config_from_flags() -> TrainConfig:
     """The `TrainConfig` of the flags (ValueError for a bad value)."""
+    bot = parse_names(_BOT.value)
+    if bot is not None:  # A difficulty may be a number.
+        bot = tuple(int(v) if v.isdigit() else v for v in bot)
     return TrainConfig(
-        map_name=_MAP.value, agent=_AGENT.value, screen_size=_SCREEN.value,
-        minimap_size=_MINIMAP.value, screen_features=parse_names(_SCREEN_FEATURES.value),
+        map_name=_MAP.value, backend=_BACKEND.value, bot=bot, agent=_AGENT.value,
+        screen_size=_SCREEN.value, minimap_size=_MINIMAP.value,
+        screen_features=parse_names(_SCREEN_FEATURES.value),
         minimap_features=parse_names(_MINIMAP_FEATURES.value),
         functions=parse_names(_FUNCTIONS.value), step_mul=_STEP_MUL.value,
         num_envs=_NUM_ENVS.value, unroll_length=_UNROLL.value, total_steps=_TOTAL.value,
@@ -104,7 +118,7 @@ def main(argv) -> None:
     print(f"Run directory: {os.path.abspath(run_dir)}\nSettings changed from the paper's "
           f"defaults: {changed or 'none'}", flush=True)
     try:
-        result = train(config, run_dir)
+        result = train(config, run_dir, sc2path=_SC2PATH.value)
     except ValueError as error:
         sys.exit(f"error: {error}")
     print(f"\nTrained for {result.seconds / 60:.1f} min; "
@@ -113,8 +127,9 @@ def main(argv) -> None:
         s = result.evaluation
         print(f"{config.map_name}, trained {config.agent}: mean {s['mean']:.2f} ± "
               f"{s['std']:.2f} (std), max {s['max']:g}, over {s['episodes']} episodes")
-        print("The paper's Table 1:")
-        print(paper_rows(config.map_name))
+        if config.map_name in MAPS:
+            print("The paper's Table 1:")
+            print(paper_rows(config.map_name))
     print(f"Results in {os.path.abspath(run_dir)}")
 
 

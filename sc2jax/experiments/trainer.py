@@ -1,6 +1,11 @@
-"""Training runs on the simulator: build, resume, train, log, checkpoint and evaluate.
+"""Training runs: build, resume, train, log, checkpoint and evaluate.
 
     result = train(TrainConfig(map_name="MoveToBeacon", agent="atari", ...), "/tmp/run")
+    result = train(TrainConfig(backend="sc2", num_envs=8, ...), "/tmp/run2")  # the game
+
+On the simulator (backend "simulator") a chunk of updates is one compiled program:
+environments, actors and learner. On the real game (backend "sc2") each environment is
+a game process, stepped by a `HostActor` thread that feeds the learner (`SplitLoop`).
 
 A run directory holds:
   config.json          the resolved `TrainConfig`
@@ -14,7 +19,8 @@ A run directory holds:
 Running `train` again on a directory with a checkpoint resumes from it: the learner,
 the optimiser, the environments and every PRNG key continue where the checkpoint left
 them, and log rows written after it are dropped, so nothing past the last checkpoint
-is lost and nothing is counted twice.
+is lost and nothing is counted twice. (Game processes cannot be checkpointed: a resumed
+run on the real game restores the learner and starts new episodes.)
 """
 
 from __future__ import annotations
@@ -27,17 +33,21 @@ import time
 from collections.abc import Callable
 from typing import Any
 
+import dm_env
 import jax
 import numpy as np
 
-from sc2jax.environment.environments import simulator
+from sc2jax.environment import specs
+from sc2jax.environment.environments import make, simulator
+from sc2jax.environment.game_env import GameEnvBatch
 from sc2jax.environment.simulator import Simulator
 from sc2jax.experiments import evaluation
 from sc2jax.experiments.actor import ActorCore, actor_core, make_unroll
 from sc2jax.experiments.checkpoints import Checkpointer, write_json_atomic
 from sc2jax.experiments.compiled_loop import TrainState, make_train_chunk
 from sc2jax.experiments.config import TrainConfig
-from sc2jax.experiments.learner import Learner, OptimiserConfig, make_learner
+from sc2jax.experiments.host_actor import HostActor, SplitLoop
+from sc2jax.experiments.learner import Learner, LearnerState, OptimiserConfig, make_learner
 from sc2jax.experiments.metrics_log import CsvLog, Progress, read_csv
 from sc2jax.experiments.plots import plot_learning_curves
 from sc2jax.experiments.tensorboard import SummaryWriter
@@ -50,10 +60,11 @@ SCORE_WINDOW = 100
 
 @dataclasses.dataclass(frozen=True)
 class Agent:
-    """Everything built from a config: simulator, network, actor and learner."""
+    """Everything built from a config: simulator (None on the real game), network,
+    actor and learner."""
 
     config: TrainConfig
-    sim: Simulator
+    sim: Simulator | None
     network: Any
     core: ActorCore
     learner: Learner
@@ -65,6 +76,22 @@ class Agent:
         rate = self.config.learning_rate if learning_rate is None else learning_rate
         learner = self.learner.init(learner_key, actor.timestep.observation, rate)
         return TrainState(learner, actor)
+
+    def initial_learner(self, key: jax.Array, learning_rate: Any = None) -> LearnerState:
+        """A fresh learner for the split loop: the same parameters `initial_state` gives
+        for the same key, initialised from a zero observation."""
+        learner_key, _ = jax.random.split(key)
+        spec = specs.observation_spec(self.config.observation_format(), padded=True)
+        observation = {k: np.zeros((1,) + v.shape, v.dtype) for k, v in spec.items()}
+        rate = self.config.learning_rate if learning_rate is None else learning_rate
+        return self.learner.init(learner_key, observation, rate)
+
+    def initial(self, key: jax.Array) -> Any:
+        """What a run checkpoints: a `TrainState` on the simulator, the `LearnerState` on
+        the real game."""
+        if self.sim is None:
+            return self.initial_learner(key)
+        return self.initial_state(key)
 
     @functools.cached_property
     def _reset_actors(self):
@@ -92,8 +119,8 @@ def build(config: TrainConfig) -> Agent:
     """Builds the simulator, network, actor and learner of a config (once per config, so
     runs of the same config in one process share compiled code)."""
     sim = simulator(config.map_name, config.observation_format(), config.step_mul, 0, 1.0,
-                    float(config.discount), False)
-    network = make_network(config.agent, sim.fmt)
+                    float(config.discount), False) if config.backend == "simulator" else None
+    network = make_network(config.agent, config.observation_format())
     loss = make_actor_critic_loss(
         network, value_weight=config.value_weight, entropy_weight=config.entropy_weight,
         off_policy_correction=config.off_policy_correction)
@@ -110,13 +137,14 @@ class TrainResult:
     """What a finished run gives back.
 
     Attributes:
-      state: the final `TrainState`.
+      state: the final state: a `TrainState` on the simulator, the `LearnerState` on
+        the real game (`Agent.initial`).
       episode_steps, episode_scores: every training episode's end step and score.
       evaluation: the final evaluation's summary (None without one).
       seconds: wall-clock seconds of this call (compilation included).
     """
 
-    state: TrainState
+    state: Any
     episode_steps: np.ndarray
     episode_scores: np.ndarray
     evaluation: dict | None
@@ -146,8 +174,54 @@ def check_run_dir(run_dir: str, config: TrainConfig) -> None:
                                  f"(saved, given): {diff}. Use a new directory.")
 
 
+def launch_games(config: TrainConfig, sc2path: str | None = None) -> GameEnvBatch:
+    """`config.num_envs` StarCraft II games (launched on their first reset) for a run on
+    the real game, each with its own seed."""
+    return GameEnvBatch([
+        make(config.map_name, config.screen_size, config.minimap_size, config.step_mul,
+             seed=config.seed + i, screen_features=config.screen_features,
+             minimap_features=config.minimap_features, discount=config.discount,
+             backend="sc2", sc2path=sc2path, bot=config.opponent())
+        for i in range(config.num_envs)])
+
+
+ChunkRunner = Callable[[Any, int], tuple[Any, dict, np.ndarray, np.ndarray]]
+"""(state, agent steps so far) -> (state, metrics {name: values}, the steps at which
+episodes ended, their scores): one chunk of `updates_per_chunk` updates."""
+
+
+def _compiled_chunks(agent: Agent) -> ChunkRunner:
+    chunk, config = agent.chunk(), agent.config
+
+    def run(state, first_step):
+        state, metrics, episodes = chunk(state)
+        metrics, episodes = jax.device_get((metrics, episodes))
+        steps, scores = _episode_rows(episodes, first_step, config.steps_per_update,
+                                      config.unroll_length)
+        return state, metrics, steps, scores
+
+    return run
+
+
+def _split_chunks(loop: SplitLoop, actor: HostActor, config: TrainConfig) -> ChunkRunner:
+    seen = [len(actor.episode_returns)]
+
+    def run(state, first_step):
+        state, metrics = loop.run(state, config.updates_per_chunk)
+        scores = np.array(actor.episode_returns[seen[0]:], np.float64)
+        seen[0] += scores.size
+        # Episodes are logged at the chunk's end (the actor runs ahead of the learner).
+        steps = np.full(scores.size, first_step + config.updates_per_chunk
+                        * config.steps_per_update)
+        return state, jax.tree.map(lambda *m: np.stack(m), *metrics), steps, scores
+
+    return run
+
+
 def train(config: TrainConfig, run_dir: str, *, log: Callable[[str], None] = print,
-          progress: bool = True, stop_after_updates: int | None = None) -> TrainResult:
+          progress: bool = True, stop_after_updates: int | None = None,
+          sc2path: str | None = None,
+          games: Callable[[TrainConfig], dm_env.Environment] | None = None) -> TrainResult:
     """Trains (or resumes) a run in `run_dir`, then evaluates it.
 
     Args:
@@ -157,6 +231,9 @@ def train(config: TrainConfig, run_dir: str, *, log: Callable[[str], None] = pri
       progress: show a progress bar on stderr.
       stop_after_updates: stop (with a checkpoint, without evaluating) once this many
         updates are done, as a preempted job would; a later call resumes.
+      sc2path: the game's install (backend "sc2"; default `$SC2PATH`).
+      games: builds the batched environment of a run on the real game (default
+        `launch_games`; e.g. games already running, or simulator servers).
 
     Returns:
       The `TrainResult`.
@@ -169,7 +246,7 @@ def train(config: TrainConfig, run_dir: str, *, log: Callable[[str], None] = pri
     check_run_dir(run_dir, config)
     write_json_atomic(os.path.join(run_dir, "config.json"), config.to_json())
     agent = build(config)
-    state = agent.initial_state(jax.random.PRNGKey(config.seed))
+    state = agent.initial(jax.random.PRNGKey(config.seed))
     checkpointer = Checkpointer(os.path.join(run_dir, "checkpoints"))
     update, env_steps = 0, 0
     if checkpointer.latest_step() is not None:
@@ -184,20 +261,26 @@ def train(config: TrainConfig, run_dir: str, *, log: Callable[[str], None] = pri
     bar = Progress(config.total_updates * config.steps_per_update,
                    show=("score", "score_max", "entropy")) if progress else None
     recent = list(read_csv(episode_log.path)["score"][-SCORE_WINDOW:]) if resume else []
-    chunk = agent.chunk()
+    env = loop = None
+    if agent.sim is None:
+        env = (games or functools.partial(launch_games, sc2path=sc2path))(config)
     last_save = time.time()
-    log(f"Training {config.agent} on {config.map_name}: {config.total_updates} updates of "
-        f"{config.num_envs} environments x {config.unroll_length} steps "
-        f"(the first chunk compiles)")
+    log(f"Training {config.agent} on {config.map_name} ({config.backend}): "
+        f"{config.total_updates} updates of {config.num_envs} environments x "
+        f"{config.unroll_length} steps (the first chunk compiles)")
     stop_at = config.total_updates if stop_after_updates is None else min(
         stop_after_updates, config.total_updates)
     try:
+        if env is None:
+            run_chunk = _compiled_chunks(agent)
+        elif update < stop_at:
+            actor = HostActor(env, agent.core, config.unroll_length,
+                              seed=config.seed + update)
+            loop = SplitLoop(actor, agent.learner, state.params)
+            run_chunk = _split_chunks(loop, actor, config)
         while update < stop_at:
             chunk_start = time.time()
-            state, metrics, episodes = chunk(state)
-            metrics, episodes = jax.device_get((metrics, episodes))
-            steps, scores = _episode_rows(episodes, env_steps, config.steps_per_update,
-                                          config.unroll_length)
+            state, metrics, steps, scores = run_chunk(state, env_steps)
             update += config.updates_per_chunk
             env_steps += config.updates_per_chunk * config.steps_per_update
             for step, score in zip(steps, scores):
@@ -220,26 +303,45 @@ def train(config: TrainConfig, run_dir: str, *, log: Callable[[str], None] = pri
                 writer.flush()
                 checkpointer.save(update, state, {"update": update, "env_steps": env_steps})
                 last_save = time.time()
+        if loop is not None:
+            loop.close()  # The evaluation steps the games next.
+            loop = None
+        episode_table = read_csv(episode_log.path)
+        _plot(run_dir, config)
+        summary = None
+        if config.eval_episodes and update >= config.total_updates:
+            log(f"Evaluating for {config.eval_episodes} episodes")
+            params = _params(state)
+            if env is None:
+                stats = evaluate_params(agent, params, config.eval_episodes,
+                                        seed=config.seed + 1)
+            else:
+                stats = evaluation.run_host_episodes(
+                    env, evaluation.host_core(agent.core, params),
+                    agent.core.initial_carry(config.num_envs), config.eval_episodes,
+                    seed=config.seed + 1)
+            summary = stats.summary
+            write_json_atomic(os.path.join(run_dir, "eval.json"),
+                              {**summary, "scores": stats.scores.tolist(),
+                               "agent_steps": env_steps, "config": config.to_json()})
     finally:
+        if loop is not None:
+            loop.close()
+        if env is not None:
+            env.close()
         if bar is not None:
             bar.close()
         writer.close()
         metrics_log.close()
         episode_log.close()
         checkpointer.close()
-    episode_table = read_csv(episode_log.path)
-    _plot(run_dir, config)
-    summary = None
-    if config.eval_episodes and update >= config.total_updates:
-        log(f"Evaluating for {config.eval_episodes} episodes")
-        stats = evaluate_params(agent, state.learner.params, config.eval_episodes,
-                                seed=config.seed + 1)
-        summary = stats.summary
-        write_json_atomic(os.path.join(run_dir, "eval.json"),
-                          {**summary, "scores": stats.scores.tolist(),
-                           "agent_steps": env_steps, "config": config.to_json()})
     return TrainResult(state, episode_table["step"], episode_table["score"], summary,
                        time.time() - start)
+
+
+def _params(state) -> Any:
+    """The network parameters of what a run checkpoints (`Agent.initial`)."""
+    return state.params if isinstance(state, LearnerState) else state.learner.params
 
 
 def _plot(run_dir: str, config: TrainConfig) -> None:
@@ -277,7 +379,7 @@ def load_run(run_dir: str, step: int | None = None) -> tuple[Agent, Any, dict]:
     with open(path) as f:
         config = TrainConfig.from_json(json.load(f))
     agent = build(config)
-    target = jax.eval_shape(lambda: agent.initial_state(jax.random.PRNGKey(0)))
+    target = jax.eval_shape(lambda: agent.initial(jax.random.PRNGKey(0)))
     with Checkpointer(os.path.join(run_dir, "checkpoints")) as checkpointer:
         state, meta = checkpointer.restore(target, step)
-    return agent, state.learner.params, meta
+    return agent, _params(state), meta

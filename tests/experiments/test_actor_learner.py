@@ -3,6 +3,7 @@ runs are in test_training.py, in a file of their own so that test workers share 
 
 from __future__ import annotations
 
+import json
 import threading
 
 import jax
@@ -19,6 +20,7 @@ from sc2jax.experiments.actor import make_unroll
 from sc2jax.experiments.compiled_loop import make_train_chunk
 from sc2jax.experiments.config import TrainConfig
 from sc2jax.experiments.host_actor import HostActor, run_split_loop
+from sc2jax.experiments.metrics_log import read_csv
 from sc2jax.losses.learner_loss import unroll as network_unroll
 from sc2jax.networks import policy
 
@@ -111,29 +113,47 @@ def test_split_loop_trains_from_a_dm_env_environment():
         run_split_loop(actor, agent.learner, state.learner, 0)
 
 
-def test_split_loop_trains_from_games_over_the_sc2_api():
-    # Two simulator servers stand in for two game processes; one batched policy acts
-    # for both, and their trajectories feed the learner.
-    config = TrainConfig(**{**TINY.to_json(), "off_policy_correction": "vtrace"})
+def test_training_on_games_over_the_sc2_api_resumes_and_evaluates(tmp_path):
+    # Two simulator servers stand in for two game processes: `train` with backend "sc2"
+    # acts for both with one batched policy (HostActor), feeds the V-trace learner
+    # (SplitLoop), checkpoints the learner, resumes, and evaluates in the games.
+    config = TrainConfig(**{**TINY.to_json(), "backend": "sc2", "eval_episodes": 3,
+                            "off_policy_correction": "vtrace"})
     agent = trainer.build(config)
-    servers = [Sc2ApiServer(port=0) for _ in range(2)]
-    for server in servers:
-        threading.Thread(target=server.serve_forever, daemon=True).start()
-    games = GameEnvBatch([
-        GameEnv(lambda server=server: Controller.connect("127.0.0.1", server.port),
-                config.map_name, screen_size=16, minimap_size=16,
-                screen_features=config.screen_features,
-                minimap_features=config.minimap_features, random_seed=seed)
-        for seed, server in enumerate(servers)])
-    try:
-        assert games.fmt == agent.sim.fmt
-        actor = HostActor(games, agent.core, config.unroll_length)
-        state = agent.initial_state(jax.random.PRNGKey(3))
-        learner, metrics = run_split_loop(actor, agent.learner, state.learner, 2)
-        assert int(learner.update) == 2 and all(np.isfinite(m["loss"]) for m in metrics)
-        trajectory = actor.unroll(learner.params)
-        k = config.unroll_length
-        assert trajectory.observation["feature_screen"].shape == (k + 1, 2, 2, 16, 16)
-        assert trajectory.observation["available_actions"].dtype == bool
-    finally:
-        games.close()
+    assert agent.sim is None
+    threads = []
+
+    def games(cfg):
+        assert cfg == config
+        servers = [Sc2ApiServer(port=0) for _ in range(2)]
+        for server in servers:
+            threads.append(threading.Thread(target=server.serve_forever, daemon=True))
+            threads[-1].start()
+        # Episodes truncated at 48 game loops (6 agent steps), so some end in training.
+        return GameEnvBatch([
+            GameEnv(lambda server=server: Controller.connect("127.0.0.1", server.port),
+                    cfg.map_name, screen_size=16, minimap_size=16,
+                    screen_features=cfg.screen_features,
+                    minimap_features=cfg.minimap_features, random_seed=seed,
+                    game_steps_per_episode=48)
+            for seed, server in enumerate(servers)])
+
+    lines = []
+    run_dir = str(tmp_path / "run")
+    first = trainer.train(config, run_dir, progress=False, stop_after_updates=2,
+                          games=games, log=lines.append)
+    assert int(first.state.update) == 2 and first.evaluation is None
+    result = trainer.train(config, run_dir, progress=False, games=games, log=lines.append)
+    assert "Resumed from update 2 (16 agent steps)" in lines
+    assert int(result.state.update) == 4
+    rows = read_csv(str(tmp_path / "run" / "metrics.csv"))
+    assert list(rows["update"]) == [2, 4] and np.isfinite(rows["loss"]).all()
+    assert result.episode_scores.size >= 2  # Each game ended an episode in training.
+    assert result.evaluation["episodes"] == 3
+    assert json.loads((tmp_path / "run" / "eval.json").read_text())["episodes"] == 3
+    for thread in threads:  # Every game was quit (a server stops on RequestQuit).
+        thread.join(timeout=10)
+        assert not thread.is_alive()
+    _, params, meta = trainer.load_run(run_dir)
+    assert meta["update"] == 4
+    assert all(jax.tree.leaves(jax.tree.map(np.array_equal, params, result.state.params)))

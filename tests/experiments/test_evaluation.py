@@ -5,6 +5,7 @@ import json
 import subprocess
 import sys
 
+import dm_env
 import numpy as np
 import pytest
 
@@ -24,8 +25,8 @@ def _sim(name="MoveToBeacon") -> Simulator:
 
 def test_unknown_agent_and_bad_counts_raise():
     with pytest.raises(ValueError, match="unknown agent 'dqn'"):
-        evaluation.make_policy("dqn", _sim())
-    policy = evaluation.make_policy("random", _sim())
+        evaluation.make_policy("dqn", "MoveToBeacon", _sim().fmt)
+    policy = evaluation.make_policy("random", "MoveToBeacon", _sim().fmt)
     for kwargs in ({"episodes": 0}, {"episodes": 2, "num_envs": -1}):
         with pytest.raises(ValueError, match="must be a positive int"):
             evaluation.run_episodes(_sim(), policy, **{"episodes": 1, **kwargs})
@@ -195,3 +196,54 @@ def test_economy_script_sends_idle_workers_builds_supply_and_trains():
     assert int(act.function) == FUNCTIONS.Train_Marine_quick.id
     with pytest.raises(ValueError, match="max_units >= 200"):
         scripted_policy("BuildMarines", ObservationFormat(64, 64, use_feature_units=True))
+
+
+class _Episodes(dm_env.Environment):
+    """A batched environment with auto-reset whose environment i has episodes of
+    `lengths[i]` steps, each step rewarding 1."""
+
+    def __init__(self, lengths):
+        self.lengths = np.array(lengths)
+        self.t = np.zeros(len(lengths), int)
+        self.actions = []
+
+    def _timestep(self, step_type, reward):
+        return dm_env.TimeStep(step_type, reward.astype(np.float32),
+                               np.ones(len(self.lengths), np.float32),
+                               {"available_actions": np.ones((len(self.lengths), 3), bool)})
+
+    def reset(self):
+        self.t[:] = 0
+        return self._timestep(np.zeros(len(self.lengths), np.int32), np.zeros(len(self.t)))
+
+    def step(self, action):
+        self.actions.append(action)
+        restart = self.t == self.lengths
+        self.t = np.where(restart, 0, self.t + 1)
+        step_type = np.where(restart, 0, np.where(self.t == self.lengths, 2, 1))
+        return self._timestep(step_type.astype(np.int32), (~restart).astype(float))
+
+    def observation_spec(self):
+        return {}
+
+    def action_spec(self):
+        return ()
+
+
+def test_host_episodes_take_every_environments_episodes_in_turn():
+    env = _Episodes([2, 5])
+    seen = []
+
+    def act(key, carry, obs, first):
+        assert obs["available_actions"].shape == (2, 3) and first.shape == (2,)
+        return carry + 1, "action"
+
+    stats = evaluation.run_host_episodes(env, act, 0, 3, on_batch=seen.append)
+    # Environment 0 finishes two episodes before environment 1 finishes one; the stats
+    # still take the first episode of each before anyone's second.
+    np.testing.assert_array_equal(stats.scores, [2, 5, 2])
+    np.testing.assert_array_equal(stats.steps, [2, 5, 2])
+    assert [s.scores.tolist() for s in seen] == [[2, 5], [2, 5, 2]]
+    assert set(env.actions) == {"action"}
+    with pytest.raises(ValueError, match="episodes"):
+        evaluation.run_host_episodes(env, act, 0, 0)
