@@ -1,8 +1,9 @@
 """Compilation settings for the test processes of one session.
 
-- A JAX compilation cache shared by the test processes. Many tests build the same
-  program more than once (training runs that are resumed, a run trained and then
-  evaluated, every xdist worker compiling a map's step). A persistent cache in a fresh
+- A JAX compilation cache shared by the test processes and the processes they start.
+  Many tests build the same program more than once (training runs that are resumed, a
+  run trained and then evaluated, every xdist worker compiling a map's step, the
+  SC2-API server stepping the program the contract tests compile). A persistent cache in a fresh
   directory per session lets each be compiled once; nothing is shared between
   sessions, so every run checks from scratch.
 - XLA's CPU backend at optimisation level 0 (unless `XLA_FLAGS` is set): the suite is
@@ -27,9 +28,13 @@ def pytest_configure(config):
         # The controlling process makes the directory; xdist workers inherit it.
         os.environ[_ENV] = tempfile.mkdtemp(prefix="sc2jax-test-jax-cache-")
         config._sc2jax_cache_owner = True
-    jax.config.update("jax_compilation_cache_dir", os.environ[_ENV])
-    jax.config.update("jax_persistent_cache_min_compile_time_secs", 0.5)
-    jax.config.update("jax_persistent_cache_min_entry_size_bytes", 0)
+    settings = {"jax_compilation_cache_dir": os.environ[_ENV],
+                "jax_persistent_cache_min_compile_time_secs": 0.5,
+                "jax_persistent_cache_min_entry_size_bytes": 0}
+    for name, value in settings.items():
+        jax.config.update(name, value)
+        # Processes the tests start (SC2-API servers, entry points) share the cache too.
+        os.environ[name.upper()] = str(value)
 
 
 def pytest_unconfigure(config):

@@ -92,10 +92,10 @@ def available_actions(units: Units, card_table=CARD_TABLE):
     training = own_selected & units.complete & queue
     depot = production.has_structure(units, UnitType.SUPPLY_DEPOT)
     only_if = {"Harvest_Return_quick": carrying.any(), "Cancel_Last_quick": training.any(),
-               "Build_Barracks_screen": depot,
-               # The production panel: a single selected unit that is training.
-               "build_queue": (count == 1) & training.any()}
+               "Build_Barracks_screen": depot}
     for name, condition in only_if.items():
         fid = FUNCTIONS[name].id
         mask = mask.at[fid].set(mask[fid] & condition)
-    return mask
+    # A UI function, not a button: available while the production panel shows (a single
+    # selected unit that is training).
+    return mask.at[FUNCTIONS.build_queue.id].set((count == 1) & training.any())

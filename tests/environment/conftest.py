@@ -16,8 +16,9 @@ from sc2jax.environment.agents import random_action
 from sc2jax.environment.environments import simulator
 from sc2jax.environment.server import Sc2ApiServer
 
-SMALL_MAKE = dict(screen_size=32, minimap_size=32, use_feature_units=True, use_raw_units=True,
-                  max_units=32)
+# The unit lists' default length (64), so that the SC2-API server's format for a client
+# that asks for raw data is this one too, and the loopback tests share these programs.
+SMALL_MAKE = dict(screen_size=32, minimap_size=32, use_feature_units=True, use_raw_units=True)
 SMALL = ObservationFormat(**SMALL_MAKE)
 PARAMS = EnvParams(game_steps_per_episode=np.int32(0))
 

@@ -84,6 +84,7 @@ def test_train_scv_pays_queues_and_appears_after_its_build_time():
     state, step = start()
     state, ts = select_cc(step, state)
     assert {F.Train_SCV_quick.id, F.Rally_Workers_screen.id} <= available(ts)
+    assert F.build_queue.id not in available(ts)  # No production panel yet.
     state, ts = act(step, state, F.Train_SCV_quick("now"))
     state, ts = act(step, state, F.Train_SCV_quick("now"))
     assert result(ts) == 0 and int(state.minerals) == 900
@@ -93,6 +94,7 @@ def test_train_scv_pays_queues_and_appears_after_its_build_time():
     assert queue[0, 0] == queue[1, 0] == F.Train_SCV_quick.ability_id
     assert 0 < queue[0, 1] < 100 and queue[1, 1] == 0 and queue[2, 0] == 0
     assert ts.observation["build_queue"][0, 0] == 45
+    assert F.build_queue.id in available(ts)  # The production panel shows.
     # Queued on the step before last: 8 + 8 loops done; 272 needs 32 more steps.
     state, _ = wait(step, state, 31)
     assert len(slots(state, UnitType.SCV)) == 12

@@ -14,8 +14,12 @@ from sc2jax.environment.functions import FUNCTIONS
 from sc2jax.environment.game_env import GameEnv
 from sc2jax.environment.minigames import MAPS
 
-SIZES = dict(screen_size=16, minimap_size=16)
+from .conftest import SMALL_MAKE
+
+# The format of the contract tests: the server steps that very program (compiled once).
+SIZES = dict(screen_size=32, minimap_size=32)
 UNITS = dict(use_feature_units=True, use_raw_units=True)
+assert SMALL_MAKE == {**SIZES, **UNITS}
 
 
 def _assert_same(local, remote, where):
