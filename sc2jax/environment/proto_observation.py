@@ -4,7 +4,9 @@
 reference/pysc2_facts.md §1): it builds the observation dict in PySC2's layout, the one
 `SC2Env` returns. `encode` is what the simulator's SC2-API server sends: it writes a
 padded simulator observation into the proto so that `decode` gives back exactly
-`to_pysc2_layout` of it.
+`to_pysc2_layout` of it. The unit lists travel as the game sends them, as `Unit` protos
+in `raw_data.units` (`encode_units`), from which `decode_units` builds `feature_units`
+and `raw_units` with the simulator's own row code.
 
 Both follow the wire format of the real game:
 - feature layers are `ImageData`, rows top to bottom, at 1 bit per pixel (most

@@ -13,6 +13,7 @@ from sc2jax.environment import FUNCTIONS, FeatureUnit, ObservationFormat, Simula
 from sc2jax.environment.agents import required_format, scripted_policy
 from sc2jax.environment.agents.scripted_economy import DEPOT_SITES, _to_pixel
 from sc2jax.environment.environments import simulator
+from sc2jax.environment.install_layout import write_sc2path
 from sc2jax.environment.observation_tables import Player
 from sc2jax.experiments import evaluation
 
@@ -127,6 +128,19 @@ def test_evaluate_writes_json(tmp_path):
     assert result["max"] == max(result["scores"])
     assert result["config"]["map"] == "MoveToBeacon"
     assert "Random policy" in out.stdout  # The paper's rows are printed beside.
+    # An evaluation in a game process: the simulator's SC2-API server, launched from an
+    # install layout as StarCraft II would be.
+    root = write_sc2path(tmp_path / "StarCraftII")
+    on_game = tmp_path / "eval_sc2.json"
+    out = subprocess.run(
+        [sys.executable, "-m", "sc2jax.experiments.evaluate", "--map=MoveToBeacon",
+         "--agent=random", "--episodes=1", "--num_envs=1", "--screen_size=16",
+         "--minimap_size=16", "--backend=sc2", f"--sc2path={root}", f"--output={on_game}"],
+        capture_output=True, text=True, timeout=300)
+    assert out.returncode == 0, out.stderr
+    game = json.loads(on_game.read_text())
+    assert game["episodes"] == 1 and game["config"]["backend"] == "sc2"
+    assert game["steps"] == result["steps"][:1]  # Both ran MoveToBeacon's whole timer.
 
 
 def _economy_obs(units, player, selected=0, last=-1, res=64):
