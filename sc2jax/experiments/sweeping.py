@@ -59,13 +59,13 @@ def run_sweep(config: TrainConfig, learning_rates, sweep_dir: str, *,
       sweep_dir: the sweep's directory; an existing sweep there is resumed.
       log: where status lines go.
 
-    Raises:
-      ValueError: for bad learning rates, or a config not on the simulator.
-
     Returns:
       The summary written to sweep.json: `learning_rates`, per-run `run_scores` and
       `run_max`, and `mean_over_runs`, `best_run`, `best_mean`, `max` (NaN scores and
       a `best_run` of None when no run has finished an episode).
+
+    Raises:
+      ValueError: for bad learning rates, or a config not on the simulator.
     """
     if config.backend != "simulator":
         raise ValueError(f"a sweep trains its runs together in one compiled program on the "
