@@ -21,18 +21,19 @@ def main():
     parser.add_argument("--num_envs", type=int, default=50)
     parser.add_argument("--size", type=int, default=64)
     parser.add_argument("--maps", default=",".join(MAPS))
+    parser.add_argument("--agents", default="random,scripted")
     args = parser.parse_args()
     print("| map | agent | episodes | mean | std | max | paper random (mean/max) "
           "| paper human (mean/max) | paper GrandMaster (mean/max) | wall s |")
     print("|---|---|---|---|---|---|---|---|---|---|")
     for name in args.maps.split(","):
-        for agent in ("random", "scripted"):
+        for agent in args.agents.split(","):
             if agent == "scripted" and name not in SCRIPTED_MAPS:
                 continue
             extra = required_format(name) if agent == "scripted" else {}
             sim = make(name, screen_size=args.size, minimap_size=args.size, **extra).simulator
             start = time.time()
-            stats = evaluation.run_episodes(sim, evaluation.make_policy(agent, sim),
+            stats = evaluation.run_episodes(sim, evaluation.make_policy(agent, name, sim.fmt),
                                             args.episodes, args.num_envs, seed=1)
             s = stats.summary
             paper = " | ".join(f"{TABLE1[row][name][0]:g} / {TABLE1[row][name][1]:g}"
