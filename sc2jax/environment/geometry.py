@@ -43,11 +43,14 @@ class MapGeometry:
         return max(self.size)
 
 
+def array_module(*arrays):
+    """numpy if every array is a numpy array (the SC2-API client's host work on the
+    game's units), else jax.numpy (the simulator, traced or not)."""
+    return np if all(isinstance(a, np.ndarray) for a in arrays) else jnp
+
+
 def _stack_xy(px, py):
-    """Stacks x and y pixel coordinates: numpy for numpy inputs (the SC2-API client
-    applies the transforms to the game's units), else jax.numpy."""
-    xp = np if isinstance(px, np.ndarray) and isinstance(py, np.ndarray) else jnp
-    return xp.stack([px, py], axis=-1)
+    return array_module(px, py).stack([px, py], axis=-1)
 
 
 class Camera:

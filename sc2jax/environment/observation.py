@@ -15,6 +15,7 @@ from sc2jax.environment.availability import (
     idle_worker_count,
 )
 from sc2jax.environment.functions import FUNCTIONS
+from sc2jax.environment.geometry import Camera, Minimap, array_module
 from sc2jax.environment.harvest import nearest_depot
 from sc2jax.environment.render import Renderer, player_relative, ratio_255
 from sc2jax.environment.state import EnvState, Order, Owner, Units
@@ -230,17 +231,11 @@ def api_units(state: EnvState, renderer: Renderer) -> dict:
     }
 
 
-def feature_unit_rows(api: dict, pixel_pos, pixel_radius, with_tags: bool, dtype=jnp.int32):
+def _feature_unit_rows(api: dict, pixel_pos, pixel_radius, with_tags: bool, dtype):
     """[N, 46] `FeatureUnit` rows from `api_units`-style values, by PySC2's rules:
-    coordinates and radii in the pixels of `pixel_pos` (float[N, 2]) and
-    `pixel_radius` (float[N]) (screen for `feature_units`, minimap for `raw_units`),
-    ratios 0..255, progress in percent, tags only `with_tags`. Raw order ids are not
-    reported (0); columns missing from `api` are 0.
-
-    Works on jax arrays (the simulator) and numpy arrays (the SC2-API client), with
-    the same float32 arithmetic, so both give the same rows for the same values.
-    """
-    xp = np if isinstance(api["unit_type"], np.ndarray) else jnp
+    coordinates and radii in pixels, ratios 0..255, progress in percent, tags only
+    `with_tags`. Raw order ids are not reported (0); columns missing from `api` are 0."""
+    xp = array_module(api["unit_type"])
     zeros = xp.zeros(api["unit_type"].shape, dtype)
     computed = {
         "build_progress": api["build_progress"] * 100,
@@ -256,6 +251,29 @@ def feature_unit_rows(api: dict, pixel_pos, pixel_radius, with_tags: bool, dtype
     }
     return xp.stack([computed.get(f.name, api.get(f.name, zeros)).astype(dtype)
                      for f in tables.FeatureUnit], axis=-1)
+
+
+def _world_pos(api: dict):
+    return array_module(api["x"]).stack([api["x"], api["y"]], axis=-1)
+
+
+def screen_unit_rows(api: dict, camera: Camera, center, dtype=jnp.int32):
+    """[N, 46] `feature_units` rows of every unit in `api` (`api_units`-style values),
+    in the screen pixels of `camera` centred at `center` (world x, y), without tags.
+
+    The simulator (jax) and the SC2-API client (numpy, on the game's `raw_data.units`)
+    both build their rows here, with the same float32 arithmetic, so they give the same
+    rows for the same values.
+    """
+    return _feature_unit_rows(api, camera.world_to_pixel(center, _world_pos(api)),
+                              api["radius"] * camera.pixels_per_unit, False, dtype)
+
+
+def minimap_unit_rows(api: dict, minimap: Minimap, dtype=jnp.int32):
+    """[N, 46] `raw_units` rows of every unit in `api`, in the pixels of `minimap`, with
+    tags (as `screen_unit_rows`)."""
+    return _feature_unit_rows(api, minimap.world_to_pixel(_world_pos(api)),
+                              api["radius"] * minimap.pixels_per_unit, True, dtype)
 
 
 def observe(state: EnvState, renderer: Renderer, card_table=CARD_TABLE) -> dict:
@@ -300,17 +318,11 @@ def observe(state: EnvState, renderer: Renderer, card_table=CARD_TABLE) -> dict:
     }
     if fmt.use_feature_units or fmt.use_raw_units:
         api = api_units(state, renderer)
-        pos = units.pos
-        radius = api["radius"]
     if fmt.use_feature_units:
-        camera = renderer.camera
-        rows = feature_unit_rows(api, camera.world_to_pixel(state.camera, pos),
-                                 radius * camera.pixels_per_unit, with_tags=False)
-        obs["feature_units"] = _pad_rows(rows, api["shown"] & (api["is_on_screen"] > 0),
-                                         fmt.max_units)
+        obs["feature_units"] = _pad_rows(
+            screen_unit_rows(api, renderer.camera, state.camera),
+            api["shown"] & (api["is_on_screen"] > 0), fmt.max_units)
     if fmt.use_raw_units:
-        minimap = renderer.minimap
-        rows = feature_unit_rows(api, minimap.world_to_pixel(pos),
-                                 radius * minimap.pixels_per_unit, with_tags=True)
-        obs["raw_units"] = _pad_rows(rows, api["shown"], fmt.max_units)
+        obs["raw_units"] = _pad_rows(minimap_unit_rows(api, renderer.minimap), api["shown"],
+                                     fmt.max_units)
     return obs

@@ -27,7 +27,11 @@ from sc2jax.environment import specs
 from sc2jax.environment.availability import ALWAYS
 from sc2jax.environment.functions import FUNCTIONS, FunctionCall, FunctionType
 from sc2jax.environment.geometry import Camera, Minimap
-from sc2jax.environment.observation import SPECIFIC_ABILITY, feature_unit_rows
+from sc2jax.environment.observation import (
+    SPECIFIC_ABILITY,
+    minimap_unit_rows,
+    screen_unit_rows,
+)
 from sc2jax.environment.proto_actions import VISIBLE_FUNCTION, from_proto, to_proto
 from sc2jax.environment.protos import sc2api
 
@@ -194,18 +198,13 @@ def decode_units(units, fmt: specs.ObservationFormat, camera_center,
     map of `map_size` (width, height), with tags. Raw order ids are 0.
     """
     api = _decode_api_units(units)
-    pos = np.stack([api["x"], api["y"]], axis=-1)
     out = {}
     if fmt.use_feature_units:
-        camera = Camera(fmt.screen_size)
-        center = np.asarray(camera_center, np.float32)
-        rows = feature_unit_rows(api, camera.world_to_pixel(center, pos),
-                                 api["radius"] * camera.pixels_per_unit, False, np.int64)
+        rows = screen_unit_rows(api, Camera(fmt.screen_size),
+                                np.asarray(camera_center, np.float32), np.int64)
         out["feature_units"] = rows[api["is_on_screen"] != 0]
     if fmt.use_raw_units:
-        minimap = Minimap(fmt.minimap_size, tuple(map_size))
-        out["raw_units"] = feature_unit_rows(api, minimap.world_to_pixel(pos),
-                                             api["radius"] * minimap.pixels_per_unit, True,
+        out["raw_units"] = minimap_unit_rows(api, Minimap(fmt.minimap_size, tuple(map_size)),
                                              np.int64)
     return out
 

@@ -15,7 +15,13 @@ import jax.numpy as jnp
 import numpy as np
 
 from sc2jax.environment.features import PlayerRelative, Visibility
-from sc2jax.environment.geometry import Camera, MapGeometry, Minimap, cell_lookup
+from sc2jax.environment.geometry import (
+    Camera,
+    MapGeometry,
+    Minimap,
+    array_module,
+    cell_lookup,
+)
 from sc2jax.environment.specs import ObservationFormat
 from sc2jax.environment.state import EnvState, Owner, Units
 from sc2jax.environment.units import UNIT_DATA, UnitType
@@ -73,7 +79,7 @@ def player_relative(owner):
 def ratio_255(value, maximum):
     """int32: value / maximum mapped to 0..255 (0 where maximum is 0). Jittable, or numpy
     for numpy inputs (the same float32 arithmetic)."""
-    xp = np if isinstance(value, np.ndarray) else jnp
+    xp = array_module(value)
     return xp.where(maximum > 0, (value / xp.maximum(maximum, 1e-6) * 255), 0).astype(xp.int32)
 
 

@@ -204,12 +204,13 @@ def _compiled_chunks(agent: Agent) -> ChunkRunner:
 
 
 def _split_chunks(loop: SplitLoop, actor: HostActor, config: TrainConfig) -> ChunkRunner:
-    seen = [len(actor.episode_returns)]
+    seen = len(actor.episode_returns)
 
     def run(state, first_step):
+        nonlocal seen
         state, metrics = loop.run(state, config.updates_per_chunk)
-        scores = np.array(actor.episode_returns[seen[0]:], np.float64)
-        seen[0] += scores.size
+        scores = np.array(actor.episode_returns[seen:], np.float64)
+        seen += scores.size
         # Episodes are logged at the chunk's end (the actor runs ahead of the learner).
         steps = np.full(scores.size, first_step + config.updates_per_chunk
                         * config.steps_per_update)
