@@ -19,6 +19,7 @@ import jax
 import jax.numpy as jnp
 
 from sc2jax.environment import harvest
+from sc2jax.environment.geometry import squared_length
 from sc2jax.environment.state import NO_TARGET, Order, Owner, Units
 from sc2jax.environment.units import UNIT_DATA, Attribute
 
@@ -134,7 +135,7 @@ def game_loop(units: Units, key, playable, bursts: bool = False, workers: bool =
     rows = jnp.arange(n)
 
     diff = pos[:, None, :] - pos[None, :, :]
-    dist = jnp.sqrt(jnp.sum(diff * diff, axis=-1) + 1e-12)
+    dist = jnp.sqrt(squared_length(diff) + 1e-12)
     gap = dist - data.radius[:, None] - data.radius[None, :]
     enemy = hostile(units.owner) & alive[:, None] & alive[None, :]
 
@@ -162,7 +163,7 @@ def game_loop(units: Units, key, playable, bursts: bool = False, workers: bool =
                | (order == Order.BUILD))
     moving = alive & (chasing | (walking & ~has_target)) & (data.speed > 0)
     to_goal = goal - pos
-    goal_dist = jnp.sqrt(jnp.sum(to_goal * to_goal, axis=-1) + 1e-12)
+    goal_dist = jnp.sqrt(squared_length(to_goal) + 1e-12)
     room = jnp.where(chasing, jnp.maximum(target_gap - data.range, 0.0) + 1e-3, goal_dist)
     # Working workers walk to their resource, Command Center or structure until they
     # touch it.
@@ -173,7 +174,7 @@ def game_loop(units: Units, key, playable, bursts: bool = False, workers: bool =
         to_unit, unit_goal, unit_room = harvest.approach(units, gap)
         goal = jnp.where(to_unit[:, None], pos[unit_goal], goal)
         to_goal = goal - pos
-        goal_dist = jnp.sqrt(jnp.sum(to_goal * to_goal, axis=-1) + 1e-12)
+        goal_dist = jnp.sqrt(squared_length(to_goal) + 1e-12)
         room = jnp.where(to_unit, unit_room, room)
         moving = moving | (alive & to_unit & (data.speed > 0))
     step = jnp.where(moving, jnp.minimum(data.speed, room), 0.0)
@@ -192,7 +193,7 @@ def game_loop(units: Units, key, playable, bursts: bool = False, workers: bool =
     moved = new_pos - pos
     to_target = pos[safe_target] - pos
     face_vec = jnp.where(in_range[:, None], to_target, moved)
-    turns = jnp.sum(face_vec * face_vec, axis=-1) > 1e-10
+    turns = squared_length(face_vec) > 1e-10
     facing = jnp.where(turns, jnp.arctan2(face_vec[:, 1], face_vec[:, 0]), units.facing)
 
     # Attacks: instant hits, combined with scatter-add. `cooldown` is the loops left
@@ -244,7 +245,7 @@ def game_loop(units: Units, key, playable, bursts: bool = False, workers: bool =
     own = units.owner == Owner.SELF
     minerals = vespene = jnp.zeros(n, jnp.float32)
     if workers:
-        gap_after = (jnp.sqrt(jnp.sum((new_pos - new_pos[unit_goal]) ** 2, axis=-1))
+        gap_after = (jnp.sqrt(squared_length(new_pos - new_pos[unit_goal]))
                      - data.radius - data.radius[unit_goal])
         units = units.replace(pos=new_pos, alive=alive)
         units, minerals, vespene, ended = harvest.harvest(
@@ -288,7 +289,7 @@ def _complete_orders(units: Units, old_pos, step, goal_dist, has_target, moving)
     """Ends move orders that arrived (or are blocked next to their goal); turns patrols."""
     order = units.orders[:, 0]
     speed = _data(units.type).speed
-    travelled = jnp.sqrt(jnp.sum((units.pos - old_pos) ** 2, axis=-1))
+    travelled = jnp.sqrt(squared_length(units.pos - old_pos))
     remaining = goal_dist - step
     blocked = moving & (travelled < STUCK_FRACTION * speed) & (goal_dist < BLOCKED_ARRIVAL)
     arrived = units.alive & ~has_target & ((moving & (remaining <= ARRIVAL)) | blocked)
@@ -310,7 +311,7 @@ def _resolve_collisions(pos, alive, data):
     collides = alive & ((data.max_health > 0) | is_structure)
     mobile = data.speed > 0
     diff = pos[:, None, :] - pos[None, :, :]
-    dist = jnp.sqrt(jnp.sum(diff * diff, axis=-1) + 1e-12)
+    dist = jnp.sqrt(squared_length(diff) + 1e-12)
     overlap = data.radius[:, None] + data.radius[None, :] - dist
     pair = collides[:, None] & collides[None, :] & (overlap > 0) & ~jnp.eye(len(pos), dtype=bool)
     # Share of the overlap i gives way: half between two mobile units, all against a wall.

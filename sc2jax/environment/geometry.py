@@ -49,6 +49,16 @@ def array_module(*arrays):
     return np if all(isinstance(a, np.ndarray) for a in arrays) else jnp
 
 
+def squared_length(v):
+    """float32[...]: the squared lengths of vectors v (float32[..., 2]), as x² + y².
+
+    Elementwise on purpose: XLA's CPU backend hands a sum over a size-2 axis
+    (`sum(v * v, axis=-1)`) to a library reduction several times slower than the fused
+    arithmetic, and the engine's pair arrays ([N, N, 2]) make that its largest cost.
+    """
+    return v[..., 0] * v[..., 0] + v[..., 1] * v[..., 1]
+
+
 def _stack_xy(px, py):
     return array_module(px, py).stack([px, py], axis=-1)
 

@@ -15,7 +15,7 @@ from sc2jax.environment.availability import (
     idle_worker_count,
 )
 from sc2jax.environment.functions import FUNCTIONS
-from sc2jax.environment.geometry import Camera, Minimap, array_module
+from sc2jax.environment.geometry import Camera, Minimap, array_module, squared_length
 from sc2jax.environment.harvest import nearest_depot
 from sc2jax.environment.render import Renderer, player_relative, ratio_255
 from sc2jax.environment.state import EnvState, Order, Owner, Units
@@ -156,7 +156,7 @@ def harvesters(units: Units):
     on_gas = worker & (units.type[home] == UnitType.REFINERY)
     on_minerals = worker & (units.type[home] == UnitType.MINERAL_FIELD)
     diff = units.pos[:, None, :] - units.pos[None, :, :]
-    dist = jnp.sqrt(jnp.sum(diff * diff, axis=-1))
+    dist = jnp.sqrt(squared_length(diff))
     depot = nearest_depot(units, dist)[home]
     count = lambda where, at: jnp.zeros(n, jnp.int32).at[  # noqa: E731
         jnp.where(where, at, n)].add(1, mode="drop")

@@ -35,6 +35,7 @@ import numpy as np
 
 from sc2jax.environment import commands
 from sc2jax.environment.dynamics import pop_order
+from sc2jax.environment.geometry import squared_length
 from sc2jax.environment.protocol_enums import ActionResult
 from sc2jax.environment.state import BUILD_QUEUE, NO_TARGET, Order, Owner, Units, place
 from sc2jax.environment.units import UNIT_DATA, UnitType
@@ -244,7 +245,7 @@ def order_build(units: Units, minerals, buildable, unit_type, point, picked, que
     site = jnp.where(refinery, units.pos[jnp.clip(picked, 0, n - 1)], snap(unit_type, point))
     target = jnp.where(refinery, picked, NO_TARGET)
     builders = units.selected & _own(units) & (units.type == UnitType.SCV)
-    distance = jnp.sum((units.pos - site) ** 2, axis=-1)
+    distance = squared_length(units.pos - site)
     builder = jnp.argmin(jnp.where(builders, distance, jnp.inf))
     placed = placement(units, buildable, unit_type, site, target)
     result = jnp.where(~builders.any(), int(ActionResult.Error), jnp.where(
@@ -355,7 +356,7 @@ def _place_arrivals(units: Units, minerals, next_tag, buildable):
     site = units.order_pos[:, 0]
     reach = _column("radius", kind) + _column("radius", units.type) + 0.1
     arrived = (_own(units) & (units.orders[:, 0] == Order.BUILD)
-               & (jnp.sqrt(jnp.sum((units.pos - site) ** 2, axis=-1)) <= reach))
+               & (jnp.sqrt(squared_length(units.pos - site)) <= reach))
     builder = jnp.argmax(arrived)
     kind_b, site_b, geyser = kind[builder], site[builder], units.order_unit[builder, 0]
     slot = free_slots(units, 1)[0]
@@ -396,7 +397,7 @@ def _construct(units: Units) -> Units:
     target = units.order_unit[:, 0]
     safe = jnp.clip(target, 0, n - 1)
     constructing = _own(units) & (units.orders[:, 0] == Order.CONSTRUCT)
-    gap = (jnp.sqrt(jnp.sum((units.pos - units.pos[safe]) ** 2, axis=-1))
+    gap = (jnp.sqrt(squared_length(units.pos - units.pos[safe]))
            - _column("radius", units.type) - _column("radius", units.type[safe]))
     working = constructing & (target >= 0) & (gap <= 0.2)
     worked = jnp.zeros(n, bool).at[safe].max(working)
@@ -439,7 +440,7 @@ def _train(units: Units, next_tag):
     spawns = done & (slot < n)
     radius = _column("radius", units.type) + _column("radius", head)
     to_rally = units.rally - units.pos
-    length = jnp.sqrt(jnp.sum(to_rally * to_rally, axis=-1))
+    length = jnp.sqrt(squared_length(to_rally))
     towards = jnp.where((units.rallied & (length > 1e-4))[:, None],
                         to_rally / jnp.maximum(length, 1e-4)[:, None], jnp.array([0.0, -1.0]))
     spawn_pos = units.pos + towards * radius[:, None]

@@ -21,6 +21,7 @@ from sc2jax.environment.geometry import (
     Minimap,
     array_module,
     cell_lookup,
+    squared_length,
 )
 from sc2jax.environment.specs import ObservationFormat
 from sc2jax.environment.state import EnvState, Owner, Units
@@ -81,6 +82,22 @@ def ratio_255(value, maximum):
     for numpy inputs (the same float32 arithmetic)."""
     xp = array_module(value)
     return xp.where(maximum > 0, (value / xp.maximum(maximum, 1e-6) * 255), 0).astype(xp.int32)
+
+
+def materialize(x):
+    """x, computed once: a fusion barrier for XLA's CPU backend.
+
+    Left to itself, XLA fuses everything that computes the planes into the loop that cuts
+    the layers out of them, and so recomputes a pixel's planes (the top unit's packed
+    words, the terrain lookup) for each of the 27 screen layers. `optimization_barrier`
+    does not stop this on CPU (the backend expands barriers before fusing); a scatter,
+    which XLA's CPU fusion never fuses into its consumers, does. Overwriting every row of
+    a zero array is an identity, at the cost of one copy.
+
+    Args:
+      x: an array of rank >= 1.
+    """
+    return jnp.zeros_like(x).at[jnp.arange(x.shape[0])].set(x)
 
 
 def paint(pixel_pos, pixel_radius, rank, shown, size, box: int, with_density: bool = False):
@@ -210,7 +227,7 @@ class Renderer:
         units = state.units
         sight = jnp.asarray(UNIT_DATA.sight)[units.type]
         eyes = units.alive & (units.owner == Owner.SELF)
-        d2 = jnp.sum((xy[..., None, :] - units.pos) ** 2, axis=-1)
+        d2 = squared_length(xy[..., None, :] - units.pos)
         return jnp.any(eyes & (d2 <= sight * sight), axis=-1)
 
     def _visibility(self, state: EnvState, xs, ys, in_play):
@@ -304,7 +321,7 @@ class Renderer:
         if not order:
             return jnp.zeros((len(names), h, w), jnp.int32)
         column = lambda v: np.asarray(v, np.int32)[:, None, None]  # noqa: E731
-        stacked = jnp.stack([planes[p].astype(jnp.int32) for p in order])
+        stacked = materialize(jnp.stack([planes[p].astype(jnp.int32) for p in order]))
         layers = jnp.right_shift(stacked[np.asarray(source)], column(shift)) & column(mask)
         if any(m != 1 for m in multiplier):
             layers = jnp.minimum(layers * column(multiplier), column(cap))

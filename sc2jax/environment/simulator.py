@@ -12,7 +12,6 @@ episode instead and returns FIRST, as dm_env (and PySC2) do. Batch with `jax.vma
 from __future__ import annotations
 
 import dataclasses
-from collections.abc import Callable
 
 import dm_env
 import jax
@@ -25,55 +24,12 @@ from sc2jax.environment.actions import apply_action
 from sc2jax.environment.availability import CARD_TABLE
 from sc2jax.environment.dense import DenseAction
 from sc2jax.environment.dynamics import game_loop
+from sc2jax.environment.lazy import lazy_where
 from sc2jax.environment.minigames import get_map
 from sc2jax.environment.observation import observe
 from sc2jax.environment.production import production_loop
 from sc2jax.environment.render import Renderer, sight_grid
 from sc2jax.environment.state import NUM_SCORE_CUMULATIVE, EnvState, Outcome
-
-
-def reset_where(initial: Callable[[jax.Array], EnvState], over, key, state: EnvState):
-    """`initial(key)` where `over`, else `state`; the auto-reset of `Simulator.step`.
-
-    Equal to `where(over, initial(key), state)` but computes the initial state only when
-    it is used: unbatched through `lax.cond`, and under `vmap` (where a `cond` on a
-    batched predicate would compute both branches for every environment) for the whole
-    batch when any environment of it starts a new episode, and not at all otherwise.
-
-    Args:
-      initial: key -> the initial state of an episode.
-      over: bool scalar, whether to start a new episode.
-      key: the key of the new episode.
-      state: the state to keep otherwise.
-
-    Returns:
-      The state, of the same structure as `state`.
-    """
-
-    @jax.custom_batching.custom_vmap
-    def select(over, key, state):
-        return jax.lax.cond(over, lambda: initial(key), lambda: state)
-
-    @select.def_vmap
-    def select_batched(axis_size, in_batched, over, key, state):
-        def batched(x, is_batched):
-            return x if is_batched else jnp.broadcast_to(x, (axis_size,) + x.shape)
-
-        over_batched, key_batched, state_batched = in_batched
-        over, key = batched(over, over_batched), batched(key, key_batched)
-        state = jax.tree_util.tree_map(batched, state, state_batched)
-
-        def with_resets():
-            fresh = jax.vmap(initial)(key)
-            return jax.tree_util.tree_map(
-                lambda a, b: jnp.where(over.reshape((-1,) + (1,) * (a.ndim - 1)), a, b),
-                fresh, state)
-
-        out = jax.lax.cond(jnp.any(over), with_resets, lambda: state)
-        return out, jax.tree_util.tree_map(lambda _: True, out)
-
-    return select(over, key, state)
-
 
 BLIZZARD_SCORE = -2
 """`Simulator.score_index` for rewards from the Blizzard score."""
@@ -174,7 +130,8 @@ class Simulator:
         params = self.default_params() if params is None else params
         over = self.episode_over(state, params)
         reset_key, _ = jax.random.split(state.key)
-        new = reset_where(self._initial_state, over, reset_key, self.advance(state, action))
+        # The auto-reset: a fresh episode, computed only when one starts.
+        new = lazy_where(over, self._initial_state, reset_key, self.advance(state, action))
         ended = self.episode_over(new, params)
         terminated = new.outcome != Outcome.RUNNING
         step_type = jnp.where(over, dm_env.StepType.FIRST,

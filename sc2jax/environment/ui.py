@@ -12,6 +12,7 @@ from __future__ import annotations
 import jax.numpy as jnp
 
 from sc2jax.environment import arguments as args_lib
+from sc2jax.environment.geometry import squared_length
 from sc2jax.environment.state import Owner, Units
 from sc2jax.environment.units import UNIT_DATA, Attribute
 
@@ -65,7 +66,7 @@ def select_rect(units: Units, pixel_pos, pixel_radius, on_screen, add, p0, p1):
     lo = jnp.minimum(p0, p1).astype(jnp.float32)
     hi = jnp.maximum(p0, p1).astype(jnp.float32) + 1.0
     nearest = jnp.clip(pixel_pos, lo, hi)
-    d2 = jnp.sum((nearest - pixel_pos) ** 2, axis=-1)
+    d2 = squared_length(nearest - pixel_pos)
     inside = units.alive & on_screen & (units.owner == Owner.SELF) & (
         d2 <= pixel_radius * pixel_radius)
     structures = _is_structure(units)

@@ -17,7 +17,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from sc2jax.environment.dynamics import LoopEvents
-from sc2jax.environment.geometry import MapGeometry
+from sc2jax.environment.geometry import MapGeometry, squared_length
 from sc2jax.environment.state import EnvState, Units
 from sc2jax.environment.units import UNIT_DATA, UnitType
 
@@ -146,5 +146,5 @@ def first_valid(key, sample: Callable, valid: Callable, tries: int = 32):
 
 def nearest_distance(points, others, mask):
     """float32[...]: distance from each point to the nearest of `others` where mask."""
-    d = jnp.sqrt(jnp.sum((points[..., None, :] - others) ** 2, axis=-1))
+    d = jnp.sqrt(squared_length(points[..., None, :] - others))
     return jnp.min(jnp.where(mask, d, jnp.inf), axis=-1)

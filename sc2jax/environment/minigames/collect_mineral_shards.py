@@ -12,6 +12,7 @@ from __future__ import annotations
 import jax
 import jax.numpy as jnp
 
+from sc2jax.environment.lazy import lazy_where
 from sc2jax.environment.minigames.base import (
     MiniGame,
     first_valid,
@@ -75,11 +76,15 @@ class CollectMineralShards(MiniGame):
 
     def on_step(self, state):
         units = state.units
-        marine_pos, marine_alive = units.pos[MARINES], units.alive[MARINES]
         key, sub = jax.random.split(state.key)
         respawn = ~units.alive[SHARDS].any()
-        fresh, tag = place(units, SHARDS, UnitType.MINERAL_SHARD, Owner.NEUTRAL,
-                           _shard_positions(sub, marine_pos, marine_alive), state.next_tag)
-        units = jax.tree_util.tree_map(lambda a, b: jnp.where(respawn, a, b), fresh, units)
-        return state.replace(units=units, next_tag=jnp.where(respawn, tag, state.next_tag),
-                             key=key)
+
+        def respawned(op):
+            units, next_tag, k = op
+            return place(units, SHARDS, UnitType.MINERAL_SHARD, Owner.NEUTRAL,
+                         _shard_positions(k, units.pos[MARINES], units.alive[MARINES]),
+                         next_tag)
+
+        units, tag = lazy_where(respawn, respawned, (units, state.next_tag, sub),
+                                (units, state.next_tag))
+        return state.replace(units=units, next_tag=tag, key=key)

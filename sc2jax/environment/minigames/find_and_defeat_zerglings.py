@@ -16,6 +16,8 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
+from sc2jax.environment.geometry import squared_length
+from sc2jax.environment.lazy import lazy_where
 from sc2jax.environment.minigames.base import (
     MiniGame,
     first_valid,
@@ -75,7 +77,7 @@ def initial_zerglings(key):
 
     def valid(points, placed, mask, i):
         spaced = nearest_distance(points, placed, mask) >= ZERGLING_SPACING
-        outside = jnp.sum((points - jnp.asarray(CENTER)) ** 2, -1) >= REGION_3_HOLE ** 2
+        outside = squared_length(points - jnp.asarray(CENTER)) >= REGION_3_HOLE ** 2
         return spaced & ((i == 1) | outside)
 
     return _sample_sequence(k_rest, first, sample, valid)
@@ -125,9 +127,13 @@ class FindAndDefeatZerglings(MiniGame):
         marine_alive = units.alive[MARINES]
         key, sub = jax.random.split(state.key)
         respawn = ~units.alive[ZERGLINGS].any() & marine_alive.any()
-        fresh, tag = place(units, ZERGLINGS, UnitType.ZERGLING, Owner.ENEMY,
-                           respawned_zerglings(sub, units.pos[MARINES], marine_alive),
-                           state.next_tag)
-        units = jax.tree_util.tree_map(lambda a, b: jnp.where(respawn, a, b), fresh, units)
-        return state.replace(units=units, key=key,
-                             next_tag=jnp.where(respawn, tag, state.next_tag))
+
+        def respawned(op):
+            units, next_tag, k = op
+            return place(units, ZERGLINGS, UnitType.ZERGLING, Owner.ENEMY,
+                         respawned_zerglings(k, units.pos[MARINES], units.alive[MARINES]),
+                         next_tag)
+
+        units, tag = lazy_where(respawn, respawned, (units, state.next_tag, sub),
+                                (units, state.next_tag))
+        return state.replace(units=units, key=key, next_tag=tag)

@@ -11,6 +11,8 @@ from __future__ import annotations
 import jax
 import jax.numpy as jnp
 
+from sc2jax.environment.geometry import squared_length
+from sc2jax.environment.lazy import lazy_where
 from sc2jax.environment.minigames.base import (
     MiniGame,
     first_valid,
@@ -32,8 +34,8 @@ def _beacon_position(key, marine_pos):
     (hx, hy), hr = REGION_3_HOLE
 
     def valid(points):
-        outside_hole = jnp.sum((points - jnp.array([hx, hy])) ** 2, -1) >= hr * hr
-        far = jnp.sum((points - marine_pos) ** 2, -1) >= MIN_BEACON_DISTANCE ** 2
+        outside_hole = squared_length(points - jnp.array([hx, hy])) >= hr * hr
+        far = squared_length(points - marine_pos) >= MIN_BEACON_DISTANCE ** 2
         return outside_hole & far
 
     return first_valid(key, lambda k: uniform_in_rect(k, REGION_3), valid, tries=64)
@@ -62,8 +64,9 @@ class MoveToBeacon(MiniGame):
         units = state.units
         marine = units.pos[MARINE]
         reached = units.alive[MARINE] & (
-            jnp.sum((marine - units.pos[BEACON]) ** 2) <= REWARD_RADIUS ** 2)
+            squared_length(marine - units.pos[BEACON]) <= REWARD_RADIUS ** 2)
         key, sub = jax.random.split(state.key)
-        moved = _beacon_position(sub, marine)
-        pos = units.pos.at[BEACON].set(jnp.where(reached, moved, units.pos[BEACON]))
+        beacon = lazy_where(reached, lambda op: _beacon_position(*op), (sub, marine),
+                            units.pos[BEACON])
+        pos = units.pos.at[BEACON].set(beacon)
         return state.replace(units=units.replace(pos=pos), score=state.score + reached, key=key)

@@ -29,6 +29,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
+from sc2jax.environment.lazy import lazy_where
 from sc2jax.environment.minigames.base import MiniGame, flat_geometry, uniform_in_rect
 from sc2jax.environment.state import Outcome, Owner, Units, place
 from sc2jax.environment.units import UNIT_DATA, UnitType
@@ -141,7 +142,7 @@ class WaveCombat(MiniGame):
         state = state.replace(score=state.score + self.KILL_REWARD * kills - losses,
                               outcome=jnp.where(defeat, int(Outcome.DEFEAT), state.outcome))
         wave = ~defeat & ~units.alive[MARINE_SLOTS:].any()
-        return jax.lax.cond(wave, self.wave_reset, lambda s: s, state)
+        return lazy_where(wave, self.wave_reset, state, state)
 
 
 class DefeatRoaches(WaveCombat):
