@@ -11,6 +11,7 @@ from __future__ import annotations
 
 from collections.abc import Callable
 
+import jax
 import jax.numpy as jnp
 import numpy as np
 
@@ -90,14 +91,16 @@ def materialize(x):
     Left to itself, XLA fuses everything that computes the planes into the loop that cuts
     the layers out of them, and so recomputes a pixel's planes (the top unit's packed
     words, the terrain lookup) for each of the 27 screen layers. `optimization_barrier`
-    does not stop this on CPU (the backend expands barriers before fusing); a scatter,
-    which XLA's CPU fusion never fuses into its consumers, does. Overwriting every row of
-    a zero array is an identity, at the cost of one copy.
+    alone does not stop this on CPU (the backend expands barriers before fusing). An
+    in-place update of x does: XLA writes x to a buffer before updating it. The update
+    writes x's own first row back at an index hidden behind a barrier (a constant index
+    would let XLA see through it), so it is an identity that costs one row.
 
     Args:
       x: an array of rank >= 1.
     """
-    return jnp.zeros_like(x).at[jnp.arange(x.shape[0])].set(x)
+    row = jax.lax.optimization_barrier(jnp.zeros(1, jnp.int32))
+    return x.at[row].set(x[:1])
 
 
 def paint(pixel_pos, pixel_radius, rank, shown, size, box: int, with_density: bool = False):
