@@ -21,13 +21,15 @@ def random_action(key, available_actions, types: Arguments) -> DenseAction:
     Returns:
       An unbatched `DenseAction` (vmap for a batch).
     """
-    keys = jax.random.split(key, len(types) + 1)
+    function_key, argument_key = jax.random.split(key)
     logits = jnp.where(available_actions, 0.0, -jnp.inf)
-    function = jax.random.categorical(keys[0], logits).astype(jnp.int32)
-    arguments = []
-    for k, t in zip(keys[1:], types):
-        if t.is_point:
-            arguments.append(jax.random.randint(k, (2,), 0, jnp.array(t.sizes)).astype(jnp.int32))
-        else:
-            arguments.append(jax.random.randint(k, (), 0, t.sizes[0]).astype(jnp.int32))
+    function = jax.random.categorical(function_key, logits).astype(jnp.int32)
+    # Every argument component in one draw: a point argument is two (x, y), the others one.
+    sizes = [size for t in types for size in t.sizes]
+    values = jax.random.randint(argument_key, (len(sizes),), 0, jnp.array(sizes, jnp.int32))
+    arguments, start = [], 0
+    for t in types:
+        part = values[start:start + len(t.sizes)]
+        arguments.append(part if t.is_point else part[0])
+        start += len(t.sizes)
     return DenseAction(function, *arguments)
