@@ -99,6 +99,7 @@ def materialize(x):
     Args:
       x: an array of rank >= 1.
     """
+    x = jnp.asarray(x)
     row = jax.lax.optimization_barrier(jnp.zeros(1, jnp.int32))
     return x.at[row].set(x[:1])
 
