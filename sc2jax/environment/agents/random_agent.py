@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import jax
 import jax.numpy as jnp
+import numpy as np
 
 from sc2jax.environment.arguments import Arguments
 from sc2jax.environment.dense import DenseAction
@@ -27,9 +28,6 @@ def random_action(key, available_actions, types: Arguments) -> DenseAction:
     # Every argument component in one draw: a point argument is two (x, y), the others one.
     sizes = [size for t in types for size in t.sizes]
     values = jax.random.randint(argument_key, (len(sizes),), 0, jnp.array(sizes, jnp.int32))
-    arguments, start = [], 0
-    for t in types:
-        part = values[start:start + len(t.sizes)]
-        arguments.append(part if t.is_point else part[0])
-        start += len(t.sizes)
+    parts = jnp.split(values, np.cumsum([len(t.sizes) for t in types])[:-1])
+    arguments = [part if t.is_point else part[0] for part, t in zip(parts, types)]
     return DenseAction(function, *arguments)
