@@ -112,7 +112,7 @@ def _select_targets(units: Units, data, gap, enemy):
 
 
 def game_loop(units: Units, key, playable, bursts: bool = False, workers: bool = False,
-              combat: bool = True) -> tuple[Units, LoopEvents]:
+              combat: bool = True, colliders: int | None = None) -> tuple[Units, LoopEvents]:
     """Advances all units by one game loop.
 
     Args:
@@ -124,6 +124,8 @@ def game_loop(units: Units, key, playable, bursts: bool = False, workers: bool =
       workers: (static) whether the map has workers that harvest (`harvest`).
       combat: (static) whether the map has enemies; maps without them skip targeting
         and attacks.
+      colliders: (static) None, or the number of leading slots that can hold units that
+        collide (`MiniGame.collider_slots`); collisions are resolved among those alone.
 
     Returns:
       The new units and the loop's events.
@@ -134,10 +136,11 @@ def game_loop(units: Units, key, playable, bursts: bool = False, workers: bool =
     pos = units.pos
     rows = jnp.arange(n)
 
-    diff = pos[:, None, :] - pos[None, :, :]
-    dist = jnp.sqrt(squared_length(diff) + 1e-12)
-    gap = dist - data.radius[:, None] - data.radius[None, :]
-    enemy = hostile(units.owner) & alive[:, None] & alive[None, :]
+    if combat or workers:  # Pair distances; maps with neither need none.
+        diff = pos[:, None, :] - pos[None, :, :]
+        dist = jnp.sqrt(squared_length(diff) + 1e-12)
+        gap = dist - data.radius[:, None] - data.radius[None, :]
+        enemy = hostile(units.owner) & alive[:, None] & alive[None, :]
 
     # Attack-unit orders whose target is gone are complete.
     order = units.orders[:, 0]
@@ -152,7 +155,7 @@ def game_loop(units: Units, key, playable, bursts: bool = False, workers: bool =
         target = jnp.full(n, NO_TARGET, jnp.int32)
     has_target = (target >= 0) & alive
     safe_target = jnp.clip(target, 0, n - 1)
-    target_gap = gap[rows, safe_target]
+    target_gap = gap[rows, safe_target] if combat else jnp.zeros(n)
     in_range = has_target & (target_gap <= data.range) & (data.damage > 0)
 
     # Where each unit heads.
@@ -184,7 +187,9 @@ def game_loop(units: Units, key, playable, bursts: bool = False, workers: bool =
     # Working workers, and SCVs on their way to a building site, pass through other units
     # (without path finding, a worker would stick behind structures on its way).
     passes = gathering | (order == Order.BUILD)
-    new_pos = _resolve_collisions(new_pos, alive & ~passes, data)
+    c = n if colliders is None else colliders
+    new_pos = new_pos.at[:c].set(_resolve_collisions(
+        new_pos[:c], (alive & ~passes)[:c], jax.tree.map(lambda x: x[:c], data)))
     x0, y0, x1, y1 = playable
     new_pos = jnp.clip(new_pos, jnp.array([x0, y0]), jnp.array([x1, y1]))
     new_pos = jnp.where(alive[:, None], new_pos, pos)

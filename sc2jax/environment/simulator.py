@@ -207,7 +207,8 @@ class Simulator:
             key, loop_key = jax.random.split(state.key)
             units, events = game_loop(state.units, loop_key, game.geometry.playable,
                                       bursts=game.has_bursts, workers=game.has_workers,
-                                      combat=game.has_enemies)
+                                      combat=game.has_enemies,
+                                      colliders=game.collider_slots)
             minerals = state.minerals + events.minerals.astype(jnp.int32)
             next_tag, spent = state.next_tag, jnp.int32(0)
             if game.has_production:

@@ -53,6 +53,9 @@ class MiniGame:
       unit_types: every `UnitType` the map can hold (sizes the renderer's windows).
       starting_minerals: the player's minerals at the start.
       has_enemies: whether the map has enemy units (else the engine skips combat).
+      collider_slots: None where any slot can hold a unit that collides; else units that
+        collide are only ever in the first `collider_slots` slots (the rest hold items
+        such as shards), and the engine resolves collisions among those alone.
     """
 
     name: str
@@ -64,6 +67,7 @@ class MiniGame:
     unit_types: tuple[UnitType, ...]
     starting_minerals: int = 0
     has_enemies: bool = True
+    collider_slots: int | None = None
 
     def init(self, key) -> tuple[Units, Any, jax.Array]:
         """Returns the starting units, the script's state, and the next unit tag."""

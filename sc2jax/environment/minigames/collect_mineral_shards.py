@@ -50,7 +50,7 @@ class CollectMineralShards(MiniGame):
                          num_slots=2 + NUM_SHARDS, geometry=flat_geometry(REGION_1), fog=False,
                          camera=(33.0, 25.0),
                          unit_types=(UnitType.MARINE, UnitType.MINERAL_SHARD),
-                         has_enemies=False)
+                         has_enemies=False, collider_slots=len(MARINES))
 
     def init(self, key):
         k_marines, k_shards = jax.random.split(key)

@@ -47,7 +47,8 @@ class MoveToBeacon(MiniGame):
         super().__init__(name="MoveToBeacon", time_limit=120, num_slots=2,
                          geometry=flat_geometry(REGION_1), fog=False,
                          camera=(33.0, 25.0),
-                         unit_types=(UnitType.MARINE, UnitType.BEACON), has_enemies=False)
+                         unit_types=(UnitType.MARINE, UnitType.BEACON), has_enemies=False,
+                         collider_slots=1)
 
     def init(self, key):
         k_marine, k_beacon = jax.random.split(key)
