@@ -308,12 +308,16 @@ def _complete_orders(units: Units, old_pos, step, goal_dist, has_target, moving)
     return pop_order(units, walking_done)
 
 
+def colliding(data):
+    """bool[N]: which of N units (their `UNIT_DATA` rows) collide: units with health and
+    structures; items (beacons, shards) have a radius for rendering only."""
+    return (data.max_health > 0) | ((data.attributes & Attribute.STRUCTURE) > 0)
+
+
 def _resolve_collisions(pos, alive, data):
     """Pushes overlapping ground units apart; immobile ones (structures, resources) don't
-    move. Items without collision (beacons, shards: radius used for rendering only) are
-    ignored."""
-    is_structure = (data.attributes & Attribute.STRUCTURE) > 0
-    collides = alive & ((data.max_health > 0) | is_structure)
+    move. Items that do not collide (`colliding`) are ignored."""
+    collides = alive & colliding(data)
     mobile = data.speed > 0
     diff = pos[:, None, :] - pos[None, :, :]
     dist = jnp.sqrt(squared_length(diff) + 1e-12)

@@ -26,7 +26,7 @@ import numpy as np
 import pytest
 
 from sc2jax.environment import FUNCTIONS, ActionResult, FeatureUnit, make, to_dense
-from sc2jax.environment.dynamics import LoopEvents, game_loop
+from sc2jax.environment.dynamics import LoopEvents, colliding, game_loop
 from sc2jax.environment.minigames import get_map
 from sc2jax.environment.state import DEFAULT_FACING, Order, Owner, Units
 from sc2jax.environment.units import UNIT_DATA, UnitType
@@ -843,3 +843,25 @@ def test_scenes_reuse_the_compiled_step():
     act(step, set_unit(state, 0, health=1.0, order=(Order.MOVE, (40.0, 30.0))),
         FUNCTIONS.no_op())
     assert step._cache_size() == size
+
+
+@pytest.mark.parametrize("map_name", [BEACON_MAP, SHARDS_MAP])
+def test_collisions_among_the_collider_slots_are_all_the_collisions(map_name):
+    # Maps that declare `collider_slots` never put a colliding unit beyond them...
+    game = get_map(map_name)
+    c = game.collider_slots
+    units, _, _ = jax.jit(jax.vmap(game.init))(jax.random.split(jax.random.PRNGKey(0), 16))
+    beyond = np.asarray(colliding(jax.tree.map(lambda col: col[units.type[:, c:]], UNIT_DATA)))
+    assert not (beyond & np.asarray(units.alive[:, c:])).any()
+    # ...so resolving collisions among them alone moves units exactly as resolving all
+    # pairs does: here every unit is stacked at one point, shards and beacon included.
+    one = jax.tree.map(lambda x: x[0], units)
+    one = one.replace(pos=jnp.full_like(one.pos, 30.0).at[:, 0].add(jnp.arange(game.num_slots)
+                                                                   * 1e-3))
+    key, playable = jax.random.PRNGKey(1), game.geometry.playable
+    run = functools.partial(game_loop, key=key, playable=playable, combat=False)
+    full, _ = run(one)
+    cut, _ = run(one, colliders=c)
+    np.testing.assert_array_equal(cut.pos, full.pos)
+    if c > 1:  # The stacked units were pushed apart.
+        assert not np.array_equal(full.pos, one.pos)
