@@ -7,8 +7,9 @@ computes it only when it is used:
 
 - unbatched, through `lax.cond`;
 - under `vmap`, where a `cond` on a batched predicate would compute both branches for
-  every environment, for the whole batch when any environment of it takes the branch,
-  and not at all otherwise.
+  every environment: not at all when no environment takes the branch, for just the
+  environments that take it when they are few (at most 1/32 of the batch, for batches of
+  32 or more), and for the whole batch otherwise.
 
 Either way the result is the same as the plain `where`, bit for bit.
 """
@@ -22,6 +23,10 @@ import jax
 import jax.numpy as jnp
 
 Out = TypeVar("Out")
+
+# Under vmap, when at most 1/FEW_LANES_DIVISOR of the batch takes the branch, only those
+# environments are computed (gathered into a batch of that size).
+FEW_LANES_DIVISOR = 32
 
 
 def lazy_where(pred, compute: Callable[[Any], Out], operand: Any, otherwise: Out) -> Out:
@@ -53,13 +58,28 @@ def lazy_where(pred, compute: Callable[[Any], Out], operand: Any, otherwise: Out
         operand = jax.tree_util.tree_map(batched, operand, operand_batched)
         otherwise = jax.tree_util.tree_map(batched, otherwise, otherwise_batched)
 
-        def computed():
+        def every_lane():
             fresh = jax.vmap(compute)(operand)
             return jax.tree_util.tree_map(
                 lambda a, b: jnp.where(pred.reshape((-1,) + (1,) * (a.ndim - 1)), a, b),
                 fresh, otherwise)
 
-        out = jax.lax.cond(jnp.any(pred), computed, lambda: otherwise)
+        def few_lanes():
+            # The environments that take the branch (padded with an out-of-range index,
+            # whose row is computed from environment 0 and then dropped).
+            (rows,) = jnp.nonzero(pred, size=lanes, fill_value=axis_size)
+            safe = jnp.minimum(rows, axis_size - 1)
+            fresh = jax.vmap(compute)(jax.tree_util.tree_map(lambda x: x[safe], operand))
+            return jax.tree_util.tree_map(lambda b, a: b.at[rows].set(a, mode="drop"),
+                                          otherwise, fresh)
+
+        taken = jnp.sum(pred)
+        lanes = axis_size // FEW_LANES_DIVISOR
+        if lanes >= 1:
+            branch = jnp.where(taken == 0, 0, jnp.where(taken <= lanes, 1, 2))
+            out = jax.lax.switch(branch, [lambda: otherwise, few_lanes, every_lane])
+        else:
+            out = jax.lax.cond(taken > 0, every_lane, lambda: otherwise)
         return out, jax.tree_util.tree_map(lambda _: True, out)
 
     return select(pred, operand, otherwise)

@@ -5,7 +5,7 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 
-from sc2jax.environment.lazy import lazy_where
+from sc2jax.environment.lazy import FEW_LANES_DIVISOR, lazy_where
 
 
 def _compute(operand):
@@ -64,3 +64,21 @@ def test_nested_vmap_equals_where():
     eager = inner(lambda p, k, s, o: _eager(p, (k, s), o))
     _assert_same(lazy(preds, keys, scales, _otherwise((3, 2))),
                  eager(preds, keys, scales, _otherwise((3, 2))))
+
+
+@pytest.mark.parametrize("taken", [[], [63], [0, 40], [5, 6, 7], list(range(0, 64, 2))])
+def test_large_batches_equal_where_whether_few_or_many_take_the_branch(taken):
+    """At 64 environments up to 64 // FEW_LANES_DIVISOR = 2 that take the branch are
+    computed alone (gathered, then scattered back); more take the whole-batch path."""
+    assert 64 // FEW_LANES_DIVISOR == 2
+    preds = jnp.zeros(64, bool).at[jnp.asarray(taken, jnp.int32)].set(True)
+    keys = jax.random.split(jax.random.PRNGKey(4), 64)
+    scales = jnp.arange(64, dtype=jnp.float32)
+    lazy = jax.jit(jax.vmap(lambda p, k, s, o: lazy_where(p, _compute, (k, s), o)))
+    eager = jax.vmap(lambda p, k, s, o: _eager(p, (k, s), o))
+    _assert_same(lazy(preds, keys, scales, _otherwise((64,))),
+                 eager(preds, keys, scales, _otherwise((64,))))
+    branches = [len(e.params["branches"]) for e in jax.make_jaxpr(lazy)(
+        preds, keys, scales, _otherwise((64,))).eqns[0].params["jaxpr"].eqns
+        if e.primitive.name == "cond"]
+    assert branches == [3]  # none, few, every

@@ -129,6 +129,19 @@ def uniform_in_rect(key, rect: Rect, shape=()):
                               maxval=jnp.array([x1, y1]))
 
 
+def candidates(key, sample: Callable, tries: int):
+    """float32[tries, 2]: the i.i.d. draws `first_valid` chooses from (`sample(k)` for
+    each of `tries` keys split from `key`)."""
+    return jax.vmap(sample)(jax.random.split(key, tries))
+
+
+def pick_first_valid(points, ok):
+    """float32[2]: the first of `points` (float32[tries, 2]) where `ok` (bool[tries]), or
+    the last point if none is valid."""
+    tries = ok.shape[0]
+    return points[jnp.where(ok.any(), jnp.argmax(ok), tries - 1)]
+
+
 def first_valid(key, sample: Callable, valid: Callable, tries: int = 32):
     """Rejection sampling with a fixed budget: the first of `tries` draws that is valid.
 
@@ -142,10 +155,8 @@ def first_valid(key, sample: Callable, valid: Callable, tries: int = 32):
       valid: float32[tries, 2] -> bool[tries].
       tries: the budget.
     """
-    candidates = jax.vmap(sample)(jax.random.split(key, tries))
-    ok = valid(candidates)
-    index = jnp.where(ok.any(), jnp.argmax(ok), tries - 1)
-    return candidates[index]
+    points = candidates(key, sample, tries)
+    return pick_first_valid(points, valid(points))
 
 
 def nearest_distance(points, others, mask):

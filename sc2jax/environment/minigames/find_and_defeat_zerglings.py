@@ -20,9 +20,11 @@ from sc2jax.environment.geometry import squared_length
 from sc2jax.environment.lazy import lazy_where
 from sc2jax.environment.minigames.base import (
     MiniGame,
+    candidates,
     first_valid,
     flat_geometry,
     nearest_distance,
+    pick_first_valid,
     uniform_in_rect,
 )
 from sc2jax.environment.state import Outcome, Owner, Units, place
@@ -46,18 +48,26 @@ def _polar(center, radius, angle):
     return jnp.asarray(center) + radius * jnp.stack([jnp.cos(angle), jnp.sin(angle)], -1)
 
 
-def _sample_sequence(key, first, sample, valid_from):
-    """Places zerglings one after another: each sample must be valid against those
-    already placed (float32[25, 2] with a mask)."""
+def _sample_sequence(key, first, sample, valid_from, tries: int = 48):
+    """Places zerglings one after another: each is the first of `tries` draws that is
+    valid against those already placed (float32[25, 2] with a mask). Zergling 0 is
+    `first`.
 
-    def body(carry, k):
+    Every candidate is drawn before the sequence starts (`sample(i)(key)` for zergling i),
+    so that the sequential part only checks them.
+    """
+    keys = jax.random.split(key, NUM_ZERGLINGS)
+    points = jax.vmap(lambda i, k: candidates(k, sample(i), tries))(
+        jnp.arange(NUM_ZERGLINGS), keys)  # [25, tries, 2]
+
+    def body(carry, points_i):
         placed, mask, i = carry
-        point = first_valid(k, sample(i), lambda p: valid_from(p, placed, mask, i), tries=48)
+        point = pick_first_valid(points_i, valid_from(points_i, placed, mask, i))
         point = jnp.where(i == 0, first, point)
         return (placed.at[i].set(point), mask.at[i].set(True), i + 1), None
 
     init = (jnp.zeros((NUM_ZERGLINGS, 2)), jnp.zeros(NUM_ZERGLINGS, bool), 0)
-    (placed, _, _), _ = jax.lax.scan(body, init, jax.random.split(key, NUM_ZERGLINGS))
+    (placed, _, _), _ = jax.lax.scan(body, init, points)
     return placed
 
 
