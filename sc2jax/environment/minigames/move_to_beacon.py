@@ -48,7 +48,7 @@ class MoveToBeacon(MiniGame):
                          geometry=flat_geometry(REGION_1), fog=False,
                          camera=(33.0, 25.0),
                          unit_types=(UnitType.MARINE, UnitType.BEACON), has_enemies=False,
-                         collider_slots=1)
+                         collider_slots=MARINE + 1)
 
     def init(self, key):
         k_marine, k_beacon = jax.random.split(key)
