@@ -58,6 +58,8 @@ def lazy_where(pred, compute: Callable[[Any], Out], operand: Any, otherwise: Out
         operand = jax.tree_util.tree_map(batched, operand, operand_batched)
         otherwise = jax.tree_util.tree_map(batched, otherwise, otherwise_batched)
 
+        lanes = axis_size // FEW_LANES_DIVISOR
+
         def every_lane():
             fresh = jax.vmap(compute)(operand)
             return jax.tree_util.tree_map(
@@ -74,7 +76,6 @@ def lazy_where(pred, compute: Callable[[Any], Out], operand: Any, otherwise: Out
                                           otherwise, fresh)
 
         taken = jnp.sum(pred)
-        lanes = axis_size // FEW_LANES_DIVISOR
         if lanes >= 1:
             branch = jnp.where(taken == 0, 0, jnp.where(taken <= lanes, 1, 2))
             out = jax.lax.switch(branch, [lambda: otherwise, few_lanes, every_lane])

@@ -27,6 +27,18 @@ def _assert_same(a, b):
         np.testing.assert_array_equal(np.asarray(x), np.asarray(y))
 
 
+def _assert_vmapped_same(preds, key):
+    """Checks a vmapped, jitted `lazy_where` against `where` for a batch of predicates
+    bool[B] (operands: B keys split from `key`, scales 0..B-1); returns its jaxpr."""
+    batch = preds.shape[0]
+    args = (preds, jax.random.split(key, batch), jnp.arange(batch, dtype=jnp.float32),
+            _otherwise((batch,)))
+    lazy = jax.jit(jax.vmap(lambda p, k, s, o: lazy_where(p, _compute, (k, s), o)))
+    eager = jax.vmap(lambda p, k, s, o: _eager(p, (k, s), o))
+    _assert_same(lazy(*args), eager(*args))
+    return jax.make_jaxpr(lazy)(*args)
+
+
 @pytest.mark.parametrize("pred", [True, False])
 def test_unbatched_equals_where(pred):
     operand = (jax.random.PRNGKey(0), jnp.float32(2.0))
@@ -37,13 +49,7 @@ def test_unbatched_equals_where(pred):
 
 @pytest.mark.parametrize("preds", [[False] * 4, [True, False, False, True], [True] * 4])
 def test_vmapped_equals_where(preds):
-    preds = jnp.asarray(preds)
-    keys = jax.random.split(jax.random.PRNGKey(1), 4)
-    scales = jnp.arange(4, dtype=jnp.float32)
-    lazy = jax.jit(jax.vmap(lambda p, k, s, o: lazy_where(p, _compute, (k, s), o)))
-    eager = jax.vmap(lambda p, k, s, o: _eager(p, (k, s), o))
-    _assert_same(lazy(preds, keys, scales, _otherwise((4,))),
-                 eager(preds, keys, scales, _otherwise((4,))))
+    _assert_vmapped_same(jnp.asarray(preds), jax.random.PRNGKey(1))
 
 
 def test_unbatched_operand_and_otherwise_under_vmap():
@@ -72,13 +78,7 @@ def test_large_batches_equal_where_whether_few_or_many_take_the_branch(taken):
     computed alone (gathered, then scattered back); more take the whole-batch path."""
     assert 64 // FEW_LANES_DIVISOR == 2
     preds = jnp.zeros(64, bool).at[jnp.asarray(taken, jnp.int32)].set(True)
-    keys = jax.random.split(jax.random.PRNGKey(4), 64)
-    scales = jnp.arange(64, dtype=jnp.float32)
-    lazy = jax.jit(jax.vmap(lambda p, k, s, o: lazy_where(p, _compute, (k, s), o)))
-    eager = jax.vmap(lambda p, k, s, o: _eager(p, (k, s), o))
-    _assert_same(lazy(preds, keys, scales, _otherwise((64,))),
-                 eager(preds, keys, scales, _otherwise((64,))))
-    branches = [len(e.params["branches"]) for e in jax.make_jaxpr(lazy)(
-        preds, keys, scales, _otherwise((64,))).eqns[0].params["jaxpr"].eqns
-        if e.primitive.name == "cond"]
+    jaxpr = _assert_vmapped_same(preds, jax.random.PRNGKey(4))
+    branches = [len(e.params["branches"]) for e in jaxpr.eqns[0].params["jaxpr"].eqns
+                if e.primitive.name == "cond"]
     assert branches == [3]  # none, few, every
