@@ -71,17 +71,29 @@ def idle_worker_count(units: Units):
     return jnp.sum(units.idle_workers).astype(jnp.int32)
 
 
+def selected_types(units: Units):
+    """bool[num_unit_types]: the types of the player's selected, complete units."""
+    own_selected = units.selected & units.alive & (units.owner == Owner.SELF)
+    of_type = units.type[:, None] == jnp.arange(len(UnitType), dtype=units.type.dtype)
+    return jnp.any(of_type & (own_selected & units.complete)[:, None], axis=0)
+
+
 def available_actions(units: Units, card_table=CARD_TABLE):
     """bool[num_functions]: the functions the player may call.
+
+    The command cards are united per selected unit type: a [num_unit_types] x
+    [num_unit_types, num_functions] product, where a gather of every unit's card row
+    would cost [num_slots, num_functions].
 
     Args:
       units: the units.
       card_table: the command cards in use (maps may restrict them).
     """
     own_selected = units.selected & units.alive & (units.owner == Owner.SELF)
-    cards = jnp.where(units.complete[:, None], jnp.asarray(card_table)[units.type],
-                      jnp.asarray(_CONSTRUCTION_MASK))
-    mask = jnp.any(cards & own_selected[:, None], axis=0) | jnp.asarray(_ALWAYS_MASK)
+    cards = jnp.dot(selected_types(units).astype(jnp.float32),
+                    jnp.asarray(card_table, jnp.float32)) > 0
+    constructing = jnp.any(own_selected & ~units.complete)
+    mask = cards | (constructing & jnp.asarray(_CONSTRUCTION_MASK)) | jnp.asarray(_ALWAYS_MASK)
     count = jnp.sum(units.selected & units.alive)
     mask = mask.at[FUNCTIONS.select_unit.id].set(count > 1)
     mask = mask.at[FUNCTIONS.select_army.id].set(army_count(units) > 0)

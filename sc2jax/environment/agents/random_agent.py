@@ -14,20 +14,26 @@ from sc2jax.environment.dense import DenseAction
 def random_action(key, available_actions, types: Arguments) -> DenseAction:
     """Samples one action.
 
+    The function and every argument component come from one `randint` draw: the function
+    as the k-th available one for a k uniform below their count (one number, where a
+    categorical over all 573 functions would draw 573), a point argument as two
+    components (x, y), the others as one.
+
     Args:
       key: RNG key.
-      available_actions: bool[num_functions], the observation's mask.
+      available_actions: bool[num_functions], the observation's mask (no_op, at least,
+        is always available).
       types: the argument types resolved to the environment's resolutions.
 
     Returns:
       An unbatched `DenseAction` (vmap for a batch).
     """
-    function_key, argument_key = jax.random.split(key)
-    logits = jnp.where(available_actions, 0.0, -jnp.inf)
-    function = jax.random.categorical(function_key, logits).astype(jnp.int32)
-    # Every argument component in one draw: a point argument is two (x, y), the others one.
+    available = jnp.asarray(available_actions, bool)
+    rank = jnp.cumsum(available, dtype=jnp.int32)  # Available functions up to each one.
     sizes = [size for t in types for size in t.sizes]
-    values = jax.random.randint(argument_key, (len(sizes),), 0, jnp.array(sizes, jnp.int32))
-    parts = jnp.split(values, np.cumsum([len(t.sizes) for t in types])[:-1])
+    bounds = jnp.array([1, *sizes], jnp.int32).at[0].set(rank[-1])
+    values = jax.random.randint(key, (len(bounds),), 0, bounds)
+    function = jnp.argmax(rank > values[0]).astype(jnp.int32)
+    parts = jnp.split(values[1:], np.cumsum([len(t.sizes) for t in types])[:-1])
     arguments = [part if t.is_point else part[0] for part, t in zip(parts, types)]
     return DenseAction(function, *arguments)
