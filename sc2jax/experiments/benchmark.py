@@ -5,7 +5,9 @@ non-spatial observation) and the random agent (SC2LE §4.4) picks its next actio
 last observation's `available_actions`. The measured program is one jitted function that
 `lax.scan`s K steps of (random action -> vmapped `Simulator.step`) for `num_envs`
 environments; compilation is excluded (a warm-up call), each call is timed to
-`block_until_ready`, and the median of the repeats is reported.
+`block_until_ready`, and the median of the repeats is reported. The programs of one
+environment count (every map, and SMAX) are timed round-robin, one call each per round,
+so a machine whose speed drifts during the run moves them alike and their ratios hold.
 
 Optionally (`--smax`), JaxMARL's SMAX (an optional, benchmark-only dependency:
 `pip install jaxmarl`) is measured the same way on its "3m" scenario, with random
@@ -80,19 +82,36 @@ def steps_per_call(num_envs: int, steps: int = 0) -> int:
     return steps if steps > 0 else max(16, min(2048, 8192 // num_envs))
 
 
-def time_rollout(rollout: Callable, carry: Any, repeats: int) -> float:
-    """Median seconds of `rollout(carry) -> carry` after one untimed warm-up call.
+class Program(NamedTuple):
+    """A compiled rollout to time: `rollout(carry) -> carry` runs `steps` agent steps of
+    `num_envs` environments."""
 
-    Each call continues from the previous call's carry, so episodes run on (and reset)
-    as in training.
+    name: str
+    num_envs: int
+    steps: int
+    step_mul: int
+    rollout: Callable
+    carry: Any
+
+
+def time_round_robin(programs: Sequence[Program], repeats: int) -> list[Result]:
+    """Times each program's median call, the programs taking turns.
+
+    Every program is called twice untimed: the first call compiles for the initial carry,
+    the second for the carry a call returns, which can differ from it in weak types
+    (SMAX's does, and a timed call would otherwise include a compilation). Then
+    `repeats` rounds time one call of each in turn. Each call continues from the
+    previous call's carry, so episodes run on (and reset) as in training.
     """
-    carry = jax.block_until_ready(rollout(carry))  # Compiles; not timed.
-    times = []
+    carries = [jax.block_until_ready(p.rollout(p.rollout(p.carry))) for p in programs]
+    times: list[list[float]] = [[] for _ in programs]
     for _ in range(repeats):
-        start = time.perf_counter()
-        carry = jax.block_until_ready(rollout(carry))
-        times.append(time.perf_counter() - start)
-    return statistics.median(times)
+        for i, p in enumerate(programs):
+            start = time.perf_counter()
+            carries[i] = jax.block_until_ready(p.rollout(carries[i]))
+            times[i].append(time.perf_counter() - start)
+    return [Result(p.name, p.num_envs, p.steps, statistics.median(t), p.step_mul)
+            for p, t in zip(programs, times)]
 
 
 def sc2jax_rollout(sim: Simulator, num_envs: int, steps: int):
@@ -123,12 +142,11 @@ def sc2jax_rollout(sim: Simulator, num_envs: int, steps: int):
     return rollout, (state, timestep, key)
 
 
-def measure_sc2jax(map_name: str, num_envs: int, fmt: ObservationFormat, step_mul: int,
-                   steps: int, repeats: int) -> Result:
-    """Measures one mini-game at one environment count."""
+def sc2jax_program(map_name: str, num_envs: int, fmt: ObservationFormat, step_mul: int,
+                   steps: int) -> Program:
+    """One mini-game's rollout at one environment count."""
     sim = Simulator(map_name=map_name, fmt=fmt, step_mul=step_mul)
-    rollout, carry = sc2jax_rollout(sim, num_envs, steps)
-    return Result(map_name, num_envs, steps, time_rollout(rollout, carry, repeats), step_mul)
+    return Program(map_name, num_envs, steps, step_mul, *sc2jax_rollout(sim, num_envs, steps))
 
 
 def smax_rollout(num_envs: int, steps: int, step_mul: int):
@@ -167,10 +185,10 @@ def smax_rollout(num_envs: int, steps: int, step_mul: int):
     return rollout, (state, obs, key)
 
 
-def measure_smax(num_envs: int, step_mul: int, steps: int, repeats: int) -> Result:
-    rollout, carry = smax_rollout(num_envs, steps, step_mul)
-    return Result(f"SMAX-{SMAX_SCENARIO}", num_envs, steps,
-                  time_rollout(rollout, carry, repeats), step_mul)
+def smax_program(num_envs: int, step_mul: int, steps: int) -> Program:
+    """SMAX-3m's rollout at one environment count (ImportError without jaxmarl)."""
+    return Program(f"SMAX-{SMAX_SCENARIO}", num_envs, steps, step_mul,
+                   *smax_rollout(num_envs, steps, step_mul))
 
 
 def markdown(results: Sequence[Result], smax: dict[int, Result], command: str,
@@ -205,30 +223,37 @@ def main(argv: Sequence[str]) -> None:
         if name not in MAPS:
             raise ValueError(f"unknown map {name!r}; the simulator has {sorted(MAPS)}")
     counts = [int(n) for n in FLAGS.num_envs]
+    if any(n < 1 for n in counts) or len(set(counts)) != len(counts):
+        raise ValueError(f"--num_envs must be distinct positive integers, got {counts}")
+    if FLAGS.repeats < 1 or FLAGS.steps < 0:
+        raise ValueError(f"--repeats must be >= 1 and --steps >= 0, got {FLAGS.repeats} "
+                         f"and {FLAGS.steps}")
     fmt = ObservationFormat(screen_size=FLAGS.screen_size, minimap_size=FLAGS.minimap_size)
     before = machine()
     logging.info("Machine: %s", before)
-    results = []
-    for name in FLAGS.maps:
-        for n in counts:
-            r = measure_sc2jax(name, n, fmt, FLAGS.step_mul, steps_per_call(n, FLAGS.steps),
-                               FLAGS.repeats)
-            logging.info("%s x%d: %.0f agent steps/s, %.0f game steps/s", name, n,
-                         r.agent_steps_per_second, r.game_steps_per_second)
-            results.append(r)
-    smax, note = {}, ""
-    if FLAGS.smax:
+    with_smax, note = FLAGS.smax, ""
+    if with_smax:
         try:
             import jaxmarl  # noqa: F401
         except ImportError as e:
-            note = f"SMAX skipped: jaxmarl is not installed ({e}); `pip install jaxmarl`."
+            with_smax, note = False, (f"SMAX skipped: jaxmarl is not installed ({e}); "
+                                      "`pip install jaxmarl`.")
             logging.warning(note)
-        else:
-            for n in counts:
-                r = measure_smax(n, FLAGS.step_mul, steps_per_call(n, FLAGS.steps),
-                                 FLAGS.repeats)
-                logging.info("SMAX-3m x%d: %.0f agent steps/s", n, r.agent_steps_per_second)
+    results, smax = [], {}
+    for n in counts:
+        steps = steps_per_call(n, FLAGS.steps)
+        programs = [sc2jax_program(name, n, fmt, FLAGS.step_mul, steps) for name in FLAGS.maps]
+        if with_smax:
+            programs.append(smax_program(n, FLAGS.step_mul, steps))
+        for r in time_round_robin(programs, FLAGS.repeats):
+            logging.info("%s x%d: %.0f agent steps/s, %.0f game steps/s", r.name, n,
+                         r.agent_steps_per_second, r.game_steps_per_second)
+            if r.name.startswith("SMAX"):
                 smax[n] = r
+            else:
+                results.append(r)
+        del programs  # Frees this count's buffers before the next.
+    results.sort(key=lambda r: (FLAGS.maps.index(r.name), counts.index(r.num_envs)))
     command = "python -m sc2jax.experiments.benchmark " + " ".join(
         f"--{k}={v}" for k, v in (
             ("maps", ",".join(FLAGS.maps)), ("num_envs", ",".join(FLAGS.num_envs)),
