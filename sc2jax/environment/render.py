@@ -146,7 +146,12 @@ def paint(pixel_pos, pixel_radius, rank, shown, size, box: int, with_density: bo
     return top, density
 
 
-def sight_grid(units: Units, xs, ys):
+def own_units(units: Units, own_slots: int | None) -> Units:
+    """The slots that can hold the player's units: the first `own_slots`, or all (None)."""
+    return units if own_slots is None else jax.tree.map(lambda x: x[:own_slots], units)
+
+
+def sight_grid(units: Units, xs, ys, own_slots: int | None = None):
     """bool[H, W]: the points (xs[j], ys[i]) within sight of one of the player's units.
 
     One unit at a time over [H, W] (the unit loop is unrolled): under `vmap` this stays
@@ -156,7 +161,10 @@ def sight_grid(units: Units, xs, ys):
       units: the units.
       xs: float32[W] world x of each column.
       ys: float32[H] world y of each row.
+      own_slots: (static) None, or the number of leading slots that can hold the
+        player's units (`MiniGame.own_slots`); only those are looked through.
     """
+    units = own_units(units, own_slots)
     sight = jnp.asarray(UNIT_DATA.sight)[units.type]
     eyes = units.alive & (units.owner == Owner.SELF)
     reach = jnp.where(eyes, sight * sight, -1.0)  # No point is within -1 of anything.
@@ -201,11 +209,15 @@ class Renderer:
       max_radius: the largest unit radius on the map, world units.
       zero_layers: per-unit layers that are zero for every unit type on the map.
       cheat_layers: fill the minimap `unit_type` layer (PySC2's `allow_cheating_layers`).
+      own_slots: None, or the number of leading slots that can hold the player's units
+        (`MiniGame.own_slots`): fog of war looks through those alone.
     """
 
     def __init__(self, fmt: ObservationFormat, geometry: MapGeometry, fog: bool,
-                 max_radius: float, zero_layers=(), cheat_layers: bool = False):
+                 max_radius: float, zero_layers=(), cheat_layers: bool = False,
+                 own_slots: int | None = None):
         self.fmt = fmt
+        self.own_slots = own_slots
         self.geometry = geometry
         self.fog = fog
         self.cheat_layers = cheat_layers
@@ -228,7 +240,7 @@ class Renderer:
 
     def visible_points(self, state: EnvState, xy):
         """bool[...]: world points within sight of one of the player's units."""
-        units = state.units
+        units = own_units(state.units, self.own_slots)
         sight = jnp.asarray(UNIT_DATA.sight)[units.type]
         eyes = units.alive & (units.owner == Owner.SELF)
         d2 = squared_length(xy[..., None, :] - units.pos)
@@ -238,7 +250,7 @@ class Renderer:
         """int32[H, W] visibility of world columns xs and rows ys (in_play: bool[H, W])."""
         if not self.fog:
             return jnp.where(in_play, int(Visibility.VISIBLE), int(Visibility.HIDDEN))
-        visible = sight_grid(state.units, xs, ys)
+        visible = sight_grid(state.units, xs, ys, self.own_slots)
         explored = cell_lookup(state.explored, self.geometry.size[1], xs, ys, False)
         out = jnp.where(visible, int(Visibility.VISIBLE),
                         jnp.where(explored, int(Visibility.SEEN), int(Visibility.HIDDEN)))

@@ -90,7 +90,7 @@ class Simulator:
         object.__setattr__(self, "game", game)
         object.__setattr__(self, "renderer", Renderer(
             self.fmt, game.geometry, game.fog, game.max_radius, game.zero_layers,
-            self.allow_cheating_layers))
+            self.allow_cheating_layers, game.own_slots))
 
     # Specs.
 
@@ -242,4 +242,5 @@ class Simulator:
         w, h = self.game.geometry.size
         xs = jnp.arange(w, dtype=jnp.float32) + 0.5
         ys = h - 1 - jnp.arange(h, dtype=jnp.float32) + 0.5
-        return state.replace(explored=state.explored | sight_grid(state.units, xs, ys))
+        return state.replace(explored=state.explored | sight_grid(state.units, xs, ys,
+                                                                    self.game.own_slots))

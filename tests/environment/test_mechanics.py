@@ -26,8 +26,10 @@ import numpy as np
 import pytest
 
 from sc2jax.environment import FUNCTIONS, ActionResult, FeatureUnit, make, to_dense
+from sc2jax.environment.agents import random_action
 from sc2jax.environment.dynamics import LoopEvents, colliding, game_loop
 from sc2jax.environment.minigames import get_map
+from sc2jax.environment.render import sight_grid
 from sc2jax.environment.state import DEFAULT_FACING, Order, Owner, Units
 from sc2jax.environment.units import UNIT_DATA, UnitType
 
@@ -865,3 +867,34 @@ def test_collisions_among_the_collider_slots_are_all_the_collisions(map_name):
     np.testing.assert_array_equal(cut.pos, full.pos)
     if c > 1:  # The stacked units were pushed apart.
         assert not np.array_equal(full.pos, one.pos)
+
+
+def test_fog_looks_through_the_own_slots_alone():
+    # FindAndDefeatZerglings declares `own_slots`: the player's units never leave them,
+    # through play and a zergling respawn...
+    sim = small_sim(MAP)
+    own = sim.game.own_slots
+    reset, step = compiled(sim)
+    state, ts = reset(jax.random.PRNGKey(2), PARAMS)
+    act = jax.jit(functools.partial(random_action, types=sim.fmt.types))
+    key = jax.random.PRNGKey(3)
+    states = [state]
+    for i in range(12):
+        if i == 6:  # Every zergling dead: the map respawns them at the next step.
+            state = state.replace(units=state.units.replace(
+                alive=state.units.alive.at[own:].set(False)))
+        key, k = jax.random.split(key)
+        state, ts = step(state, act(k, ts.observation["available_actions"]), PARAMS)
+        states.append(state)
+    assert bool(states[7].units.alive[own:].any())  # The respawn happened.
+    w, h = sim.game.geometry.size
+    xs = jnp.arange(w, dtype=jnp.float32) + 0.5
+    ys = h - 1 - jnp.arange(h, dtype=jnp.float32) + 0.5
+    for s in states:
+        units = s.units
+        assert not np.asarray(units.alive[own:] & (units.owner[own:] == Owner.SELF)).any()
+        # ...so looking through them alone sees exactly what looking through all does,
+        # here with every enemy made the player's: the full grid then sees more.
+        np.testing.assert_array_equal(sight_grid(units, xs, ys, own), sight_grid(units, xs, ys))
+        mine = units.replace(owner=jnp.full_like(units.owner, Owner.SELF))
+        assert bool((sight_grid(mine, xs, ys) & ~sight_grid(mine, xs, ys, own)).any())

@@ -56,6 +56,9 @@ class MiniGame:
       collider_slots: None where any slot can hold a unit that collides; else units that
         collide are only ever in the first `collider_slots` slots (the rest hold items
         such as shards), and the engine resolves collisions among those alone.
+      own_slots: None where any slot can hold one of the player's units; else the
+        player's units are only ever in the first `own_slots` slots, and fog of war
+        looks through those alone.
     """
 
     name: str
@@ -68,6 +71,7 @@ class MiniGame:
     starting_minerals: int = 0
     has_enemies: bool = True
     collider_slots: int | None = None
+    own_slots: int | None = None
 
     def init(self, key) -> tuple[Units, Any, jax.Array]:
         """Returns the starting units, the script's state, and the next unit tag."""

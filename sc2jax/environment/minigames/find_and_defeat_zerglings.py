@@ -112,7 +112,8 @@ class FindAndDefeatZerglings(MiniGame):
         super().__init__(name="FindAndDefeatZerglings", time_limit=180,
                          num_slots=NUM_MARINES + NUM_ZERGLINGS,
                          geometry=flat_geometry(REGION_1), fog=True, camera=(32.0, 25.0),
-                         unit_types=(UnitType.MARINE, UnitType.ZERGLING))
+                         unit_types=(UnitType.MARINE, UnitType.ZERGLING),
+                         own_slots=NUM_MARINES)
 
     def init(self, key):
         units = Units.empty(self.num_slots)
