@@ -4,7 +4,7 @@ Every step renders the whole observation (all screen and minimap layers and ever
 non-spatial observation) and the random agent (SC2LE §4.4) picks its next action from the
 last observation's `available_actions`. The measured program is one jitted function that
 `lax.scan`s K steps of (random action -> vmapped `Simulator.step`) for `num_envs`
-environments; compilation is excluded (a warm-up call), each call is timed to
+environments; compilation is excluded (two warm-up calls), each call is timed to
 `block_until_ready`, and the median of the repeats is reported. The programs of one
 environment count (every map, and SMAX) are timed round-robin, one call each per round,
 so a machine whose speed drifts during the run moves them alike and their ratios hold.
