@@ -142,11 +142,13 @@ def game_loop(units: Units, key, playable, bursts: bool = False, workers: bool =
         gap = dist - data.radius[:, None] - data.radius[None, :]
         enemy = hostile(units.owner) & alive[:, None] & alive[None, :]
 
-    # Attack-unit orders whose target is gone are complete.
-    order = units.orders[:, 0]
-    ordered = units.order_unit[:, 0]
-    target_gone = (order == Order.ATTACK_UNIT) & ~alive[jnp.clip(ordered, 0, n - 1)]
-    units = pop_order(units, target_gone & alive)
+    # Attack-unit orders whose target is gone are complete (only an enemy under the
+    # cursor gives one, so maps without enemies have none).
+    if combat:
+        ordered = units.order_unit[:, 0]
+        target_gone = (units.orders[:, 0] == Order.ATTACK_UNIT) & ~alive[jnp.clip(ordered, 0,
+                                                                                  n - 1)]
+        units = pop_order(units, target_gone & alive)
     order = units.orders[:, 0]
 
     if combat:
