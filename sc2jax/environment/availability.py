@@ -71,9 +71,8 @@ def idle_worker_count(units: Units):
     return jnp.sum(units.idle_workers).astype(jnp.int32)
 
 
-def selected_types(units: Units):
-    """bool[num_unit_types]: the types of the player's selected, complete units."""
-    own_selected = units.selected & units.alive & (units.owner == Owner.SELF)
+def _selected_types(units: Units, own_selected):
+    """bool[num_unit_types]: the types of the complete units among `own_selected` (bool[N])."""
     of_type = units.type[:, None] == jnp.arange(len(UnitType), dtype=units.type.dtype)
     return jnp.any(of_type & (own_selected & units.complete)[:, None], axis=0)
 
@@ -90,7 +89,7 @@ def available_actions(units: Units, card_table=CARD_TABLE):
       card_table: the command cards in use (maps may restrict them).
     """
     own_selected = units.selected & units.alive & (units.owner == Owner.SELF)
-    cards = jnp.dot(selected_types(units).astype(jnp.float32),
+    cards = jnp.dot(_selected_types(units, own_selected).astype(jnp.float32),
                     jnp.asarray(card_table, jnp.float32)) > 0
     constructing = jnp.any(own_selected & ~units.complete)
     mask = cards | (constructing & jnp.asarray(_CONSTRUCTION_MASK)) | jnp.asarray(_ALWAYS_MASK)

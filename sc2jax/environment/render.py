@@ -146,9 +146,19 @@ def paint(pixel_pos, pixel_radius, rank, shown, size, box: int, with_density: bo
     return top, density
 
 
-def own_units(units: Units, own_slots: int | None) -> Units:
-    """The slots that can hold the player's units: the first `own_slots`, or all (None)."""
-    return units if own_slots is None else jax.tree.map(lambda x: x[:own_slots], units)
+def eyes(units: Units, own_slots: int | None = None):
+    """Where the player's units look from: (pos float32[M, 2], reach float32[M]).
+
+    M is `own_slots` (the leading slots that can hold the player's units,
+    `MiniGame.own_slots`) or, for None, all N slots. `reach` is the squared sight radius
+    of each of the player's live units and -1 elsewhere: no point is within -1 of
+    anything.
+    """
+    if own_slots is not None:
+        units = jax.tree.map(lambda x: x[:own_slots], units)
+    sight = jnp.asarray(UNIT_DATA.sight)[units.type]
+    looks = units.alive & (units.owner == Owner.SELF)
+    return units.pos, jnp.where(looks, sight * sight, -1.0)
 
 
 def sight_grid(units: Units, xs, ys, own_slots: int | None = None):
@@ -164,14 +174,11 @@ def sight_grid(units: Units, xs, ys, own_slots: int | None = None):
       own_slots: (static) None, or the number of leading slots that can hold the
         player's units (`MiniGame.own_slots`); only those are looked through.
     """
-    units = own_units(units, own_slots)
-    sight = jnp.asarray(UNIT_DATA.sight)[units.type]
-    eyes = units.alive & (units.owner == Owner.SELF)
-    reach = jnp.where(eyes, sight * sight, -1.0)  # No point is within -1 of anything.
-    dx2 = (xs[None, :] - units.pos[:, 0, None]) ** 2
-    dy2 = (ys[None, :] - units.pos[:, 1, None]) ** 2
+    pos, reach = eyes(units, own_slots)
+    dx2 = (xs[None, :] - pos[:, 0, None]) ** 2
+    dy2 = (ys[None, :] - pos[:, 1, None]) ** 2
     seen = jnp.zeros((ys.shape[0], xs.shape[0]), bool)
-    for i in range(units.num_slots):
+    for i in range(len(reach)):
         seen = seen | (dy2[i][:, None] + dx2[i][None, :] <= reach[i])
     return seen
 
@@ -240,11 +247,8 @@ class Renderer:
 
     def visible_points(self, state: EnvState, xy):
         """bool[...]: world points within sight of one of the player's units."""
-        units = own_units(state.units, self.own_slots)
-        sight = jnp.asarray(UNIT_DATA.sight)[units.type]
-        eyes = units.alive & (units.owner == Owner.SELF)
-        d2 = squared_length(xy[..., None, :] - units.pos)
-        return jnp.any(eyes & (d2 <= sight * sight), axis=-1)
+        pos, reach = eyes(state.units, self.own_slots)
+        return jnp.any(squared_length(xy[..., None, :] - pos) <= reach, axis=-1)
 
     def _visibility(self, state: EnvState, xs, ys, in_play):
         """int32[H, W] visibility of world columns xs and rows ys (in_play: bool[H, W])."""

@@ -31,7 +31,7 @@ def random_action(key, available_actions, types: Arguments) -> DenseAction:
     available = jnp.asarray(available_actions, bool)
     rank = jnp.cumsum(available, dtype=jnp.int32)  # Available functions up to each one.
     sizes = [size for t in types for size in t.sizes]
-    bounds = jnp.array([1, *sizes], jnp.int32).at[0].set(rank[-1])
+    bounds = jnp.concatenate([rank[-1:], jnp.array(sizes, jnp.int32)])
     values = jax.random.randint(key, (len(bounds),), 0, bounds)
     function = jnp.argmax(rank > values[0]).astype(jnp.int32)
     parts = jnp.split(values[1:], np.cumsum([len(t.sizes) for t in types])[:-1])
