@@ -16,7 +16,7 @@ from sc2jax.experiments import sweeping as sampling
 from sc2jax.experiments.config import TrainConfig, parse_names
 from sc2jax.experiments.learner import annealed_learning_rate
 from sc2jax.experiments.metrics_log import read_csv
-from sc2jax.experiments.random_search import random_search
+from sc2jax.experiments.random_search import over_policies, random_search
 
 TINY = TrainConfig(map_name="MoveToBeacon", agent="atari", screen_size=16, minimap_size=16,
                    screen_features=("player_relative", "selected"),
@@ -125,3 +125,13 @@ def test_random_search_keeps_the_best_policy():
     assert result["max"] >= result["best_mean"]
     with pytest.raises(ValueError, match="temperature must be > 0"):
         random_search(TINY, 1, temperature=0.0)
+
+
+def test_over_policies_pairs_each_policy_with_its_key():
+    def fn(params, key):
+        return params["w"] * 10.0 + jax.random.uniform(key)
+
+    params = {"w": jnp.arange(3.0)}
+    keys = jax.random.split(jax.random.PRNGKey(0), 3)
+    expected = jnp.stack([fn({"w": params["w"][i]}, keys[i]) for i in range(3)])
+    np.testing.assert_allclose(jax.jit(over_policies(fn))(params, keys), expected, rtol=1e-6)
