@@ -3,13 +3,17 @@
 One training step unrolls the actor for K steps with the current parameters and
 applies one learner update to that trajectory (synchronous A2C: the paper's A3C
 without the asynchrony), all in one compiled program. A chunk is `updates_per_chunk`
-such steps; the host only logs and checkpoints between chunks. A sweep vmaps the
-step over runs.
+such steps; the host only logs and checkpoints between chunks. A sweep trains R runs
+of one config together.
 
-On accelerators the chunk's steps run inside `lax.scan`, so a chunk is one program.
-On XLA's CPU backend a convolution's gradient inside a loop runs about 8x slower
-than the same program outside one (docs/benchmarks.md), so there the chunk calls the
-compiled step once per update from Python; the step itself is still one program.
+On accelerators the chunk's steps run inside `lax.scan`, so a chunk is one program,
+and a sweep vmaps the step over its runs. On XLA's CPU backend a convolution's
+gradient inside a loop runs about 8x slower than the same program outside one
+(docs/benchmarks.md), so there the chunk calls the compiled step once per update from
+Python; the step itself is still one program. A sweep there calls one run's step for
+each run in turn, since the vmapped step's run-grouped convolutions ran 1.6-1.9x slower
+per run (FullyConv at 16², 4 environments x K = 16, 2 runs: 0.34-0.39 s against
+0.21 s per update and run, the 2-core machine).
 """
 
 from __future__ import annotations
@@ -59,8 +63,9 @@ def make_train_chunk(unroll: Unroll, learner: Learner, updates_per_chunk: int, *
       unroll: the compiled actor.
       learner: the learner.
       updates_per_chunk: U, the updates per call (>= 1).
-      num_runs: None for one run; R to vmap over R runs (every leaf of the state then
-        has a leading [R] axis, e.g. one learning rate per run).
+      num_runs: None for one run; R for R runs (every leaf of the state then has a
+        leading [R] axis, e.g. one learning rate per run), vmapped when scanned and
+        else one after another.
       scan: run the U steps in `lax.scan` (None: on every backend but CPU).
 
     Returns:
@@ -74,10 +79,10 @@ def make_train_chunk(unroll: Unroll, learner: Learner, updates_per_chunk: int, *
     if num_runs is not None:
         check_positive_int("num_runs", num_runs)
     step = make_train_step(unroll, learner)
-    if num_runs is not None:
-        step = jax.vmap(step)
-    axis = 0 if num_runs is None else 1  # outputs are [U, ...] or [R, U, ...]
     scan = jax.default_backend() != "cpu" if scan is None else scan
+    axis = 0 if num_runs is None else 1  # outputs are [U, ...] or [R, U, ...]
+    if num_runs is not None and scan:
+        step = jax.vmap(step)
     if scan:
         def scan_body(state: TrainState, _):
             state, metrics, episodes = step(state)
@@ -90,6 +95,8 @@ def make_train_chunk(unroll: Unroll, learner: Learner, updates_per_chunk: int, *
         return jax.jit(scanned, donate_argnums=0)
 
     compiled = jax.jit(step, donate_argnums=0)
+    if num_runs is not None:
+        compiled = _run_by_run(compiled, num_runs)
 
     def looped(state: TrainState):
         outs = []
@@ -99,3 +106,11 @@ def make_train_chunk(unroll: Unroll, learner: Learner, updates_per_chunk: int, *
         return state, *jax.tree.map(lambda *xs: jnp.stack(xs, axis), *outs)
 
     return looped
+
+
+def _run_by_run(step, num_runs: int):
+    """`step` (one run's compiled step) applied to each of `num_runs` runs in turn: the
+    state's leaves are [R, ...] in and out, as the vmapped step's are."""
+    take = jax.jit(lambda state, r: jax.tree.map(lambda x: x[r], state))
+    stack = jax.jit(lambda *outs: jax.tree.map(lambda *xs: jnp.stack(xs), *outs))
+    return lambda state: stack(*[step(take(state, r)) for r in range(num_runs)])

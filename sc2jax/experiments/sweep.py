@@ -1,4 +1,5 @@
-r"""A hyper-parameter sweep like the paper's: N runs with sampled learning rates, vmapped.
+r"""A hyper-parameter sweep like the paper's: N runs with sampled learning rates,
+trained together (vmapped in one program on an accelerator).
 
     python -m sc2jax.experiments.sweep --map=MoveToBeacon --agent=fullyconv \
         --num_runs=8 --total_steps=2000000 --run_dir=/tmp/sweeps/beacon
@@ -21,7 +22,7 @@ from sc2jax.experiments import train as train_flags
 from sc2jax.experiments.paper import paper_rows
 from sc2jax.experiments.sweeping import run_sweep, sample_learning_rates
 
-_NUM_RUNS = flags.DEFINE_integer("num_runs", 8, "Runs in the sweep (vmapped together).")
+_NUM_RUNS = flags.DEFINE_integer("num_runs", 8, "Runs in the sweep (trained together).")
 _LR_MIN = flags.DEFINE_float("lr_min", 1e-5, "Smallest sampled learning rate.")
 _LR_MAX = flags.DEFINE_float("lr_max", 1e-3, "Largest sampled learning rate.")
 _SWEEP_SEED = flags.DEFINE_integer("sweep_seed", 0, "Seed of the sampled learning rates.")

@@ -1,9 +1,10 @@
-"""Hyper-parameter sweeps like the paper's: R runs vmapped inside one compiled program.
+"""Hyper-parameter sweeps like the paper's: R runs trained together.
 
 Every run shares the config but has its own seed and its own initial learning rate,
 sampled log-uniformly from [lr_min, lr_max] (the paper: [1e-5, 1e-3]). The R runs'
-states are stacked on a leading axis and one chunk advances them all. A sweep
-directory holds:
+states are stacked on a leading axis and one chunk advances them all: vmapped inside
+one compiled program on an accelerator, one run's step after another on CPU
+(`compiled_loop.make_train_chunk`). A sweep directory holds:
 
   config.json, sweep.json   the shared config; the rates and the Table 1 summary
   checkpoints/              the stacked state (a sweep resumes like a run)

@@ -77,15 +77,28 @@ def test_scan_and_loop_chunks_agree_and_learn(agent):
         assert all(jax.tree.leaves(changed)), name
 
 
-def test_sweep_chunk_vmaps_over_runs(agent):
+def test_sweep_chunk_trains_each_run_as_if_alone(agent):
     unroll = make_unroll(agent.sim, agent.core, TINY.unroll_length)
     rates = jnp.array([1e-4, 1e-3], jnp.float32)
     states = jax.vmap(agent.initial_state)(jax.random.split(jax.random.PRNGKey(2), 2), rates)
-    chunk = make_train_chunk(unroll, agent.learner, 2, num_runs=2)
-    states, metrics, episodes = chunk(states)
-    assert metrics["learning_rate"].shape == (2, 2)
-    np.testing.assert_allclose(metrics["learning_rate"][:, 0], [1e-4, 1e-3], rtol=1e-6)
-    assert episodes.score.shape == (2, 2, TINY.unroll_length, 2)
+    outs = {}
+    for scan in (False, True):  # one run after another (CPU's default), and vmapped
+        chunk = make_train_chunk(unroll, agent.learner, 2, num_runs=2, scan=scan)
+        outs[scan] = chunk(jax.tree.map(jnp.array, states))  # the chunk donates its input
+        _, metrics, episodes = outs[scan]
+        assert metrics["learning_rate"].shape == (2, 2)
+        np.testing.assert_allclose(metrics["learning_rate"][:, 0], [1e-4, 1e-3], rtol=1e-6)
+        assert episodes.score.shape == (2, 2, TINY.unroll_length, 2)
+    alone, _, _ = make_train_chunk(unroll, agent.learner, 2)(
+        jax.tree.map(lambda x: jnp.array(x[1]), states))
+    close = lambda a, b: np.testing.assert_allclose(a, b, rtol=2e-4, atol=1e-6)  # noqa: E731
+    jax.tree.map(lambda a, b: close(a[1], b), outs[False][0].learner.params,
+                 alone.learner.params)
+    jax.tree.map(close, outs[False][0].learner.params, outs[True][0].learner.params)
+    for r in (0, 1):  # the runs differ (their own rates and seeds)
+        assert int(outs[False][0].learner.update[r]) == 2
+    assert not np.allclose(outs[False][0].learner.params["params"]["value"]["kernel"][0],
+                           outs[False][0].learner.params["params"]["value"]["kernel"][1])
 
 
 def test_split_loop_trains_from_a_dm_env_environment():
