@@ -32,6 +32,7 @@ from absl import app, flags, logging
 
 from sc2jax.environment import MAPS, ObservationFormat, Simulator
 from sc2jax.environment.agents.random_agent import random_action
+from sc2jax.experiments.checks import positive_ints
 from sc2jax.experiments.machine import machine
 from sc2jax.experiments.markdown import write_section
 
@@ -222,8 +223,8 @@ def main(argv: Sequence[str]) -> None:
     for name in FLAGS.maps:
         if name not in MAPS:
             raise ValueError(f"unknown map {name!r}; the simulator has {sorted(MAPS)}")
-    counts = [int(n) for n in FLAGS.num_envs]
-    if any(n < 1 for n in counts) or len(set(counts)) != len(counts):
+    counts = positive_ints("num_envs", FLAGS.num_envs)
+    if len(set(counts)) != len(counts):
         raise ValueError(f"--num_envs must be distinct positive integers, got {counts}")
     if FLAGS.repeats < 1 or FLAGS.steps < 0:
         raise ValueError(f"--repeats must be >= 1 and --steps >= 0, got {FLAGS.repeats} "

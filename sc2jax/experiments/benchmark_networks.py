@@ -1,6 +1,6 @@
 """Forward + backward throughput of the four networks on this machine.
 
-    python -m sc2jax.experiments.benchmark_networks [--resolutions 64 32] [--repeats 5]
+    python -m sc2jax.experiments.benchmark_networks [--resolutions=64,32] [--repeats=5]
 
 For each network and resolution (all 27 screen and 11 minimap layers), times one
 jitted gradient of the A3C loss (`make_actor_critic_loss`) on a trajectory of T steps
@@ -12,7 +12,6 @@ warm-up call (compilation excluded). With `--write`, the table replaces the sect
 
 from __future__ import annotations
 
-import argparse
 import datetime
 import os
 import platform
@@ -23,9 +22,11 @@ from collections.abc import Sequence
 import jax
 import jax.numpy as jnp
 import numpy as np
+from absl import app, flags
 
 from sc2jax.environment import ObservationFormat, observation_spec
 from sc2jax.environment.dense import DenseAction
+from sc2jax.experiments.checks import check_positive_int, positive_ints
 from sc2jax.experiments.markdown import write_section
 from sc2jax.losses import Trajectory, make_actor_critic_loss
 from sc2jax.networks import NETWORKS, make_network
@@ -102,19 +103,27 @@ def _cpu_model() -> str:
     return platform.processor() or "unknown"
 
 
-def main(argv: Sequence[str] | None = None) -> None:
-    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    parser.add_argument("--networks", nargs="+", default=list(NETWORKS), choices=list(NETWORKS))
-    parser.add_argument("--resolutions", nargs="+", type=int, default=[64, 32])
-    parser.add_argument("--steps", type=int, default=4, help="T, steps per trajectory")
-    parser.add_argument("--envs", type=int, default=8, help="B, environments")
-    parser.add_argument("--repeats", type=int, default=5)
-    parser.add_argument("--write", action="store_true", help="update docs/benchmarks.md")
-    args = parser.parse_args(argv)
+_NETWORKS = flags.DEFINE_list("networks", list(NETWORKS), f"Networks, of {list(NETWORKS)}.")
+_RESOLUTIONS = flags.DEFINE_list("resolutions", ["64", "32"], "Screen and minimap sizes.")
+_STEPS = flags.DEFINE_integer("steps", 4, "T, steps per trajectory.")
+_ENVS = flags.DEFINE_integer("envs", 8, "B, environments.")
+_REPEATS = flags.DEFINE_integer("repeats", 5, "Timed calls (the median is reported).")
+_WRITE = flags.DEFINE_bool("write", False, "Update docs/benchmarks.md.")
+
+
+def main(argv: Sequence[str]) -> None:
+    del argv
+    for name in _NETWORKS.value:
+        if name not in NETWORKS:
+            raise ValueError(f"unknown network {name!r}; allowed: {list(NETWORKS)}")
+    resolutions = positive_ints("resolutions", _RESOLUTIONS.value)
+    steps, envs, repeats = _STEPS.value, _ENVS.value, _REPEATS.value
+    for name, value in (("steps", steps), ("envs", envs), ("repeats", repeats)):
+        check_positive_int(name, value)
     rows = []
-    for name in args.networks:
-        for size in args.resolutions:
-            sps = benchmark(name, size, args.steps, args.envs, args.repeats)
+    for name in _NETWORKS.value:
+        for size in resolutions:
+            sps = benchmark(name, size, steps, envs, repeats)
             rows.append((name, size, sps))
             print(f"{name:15s} {size:3d}x{size:<3d} {sps:9.1f} samples/s", flush=True)
     table = ["| network | resolution | forward + backward samples/s |", "|---|---|---|"]
@@ -122,16 +131,16 @@ def main(argv: Sequence[str] | None = None) -> None:
     text = "\n".join([
         SECTION, "",
         "Command: `python -m sc2jax.experiments.benchmark_networks --write` "
-        f"(T={args.steps}, B={args.envs}: {args.steps * args.envs} samples per step; "
-        f"median of {args.repeats} timed calls after a warm-up; all 27 screen and 11 "
+        f"(T={steps}, B={envs}: {steps * envs} samples per step; "
+        f"median of {repeats} timed calls after a warm-up; all 27 screen and 11 "
         "minimap layers; one jitted gradient of the A3C loss).", "",
         f"Machine: CPU, `nproc` = {os.cpu_count()}, {_cpu_model()}; jax {jax.__version__} "
         f"({jax.default_backend()}). Date: {datetime.date.today().isoformat()}.", "",
         "GPU: not measured in this session.", "", *table, ""])
-    if args.write:
+    if _WRITE.value:
         write_section(DOC, text)
     print(text)
 
 
 if __name__ == "__main__":
-    main()
+    app.run(main)

@@ -14,16 +14,17 @@ whole step). With --write the table replaces the "Training throughput on CPU" (o
 
 from __future__ import annotations
 
-import argparse
 import os
 import platform
 import sys
 import time
 
 import jax
+from absl import app, flags
 
 from sc2jax.environment.agents import random_action
 from sc2jax.experiments.actor import make_unroll
+from sc2jax.experiments.checks import check_positive_int, positive_ints
 from sc2jax.experiments.compiled_loop import make_train_step
 from sc2jax.experiments.config import TrainConfig
 from sc2jax.experiments.markdown import write_section
@@ -89,38 +90,42 @@ def table(rows: list[dict], header: str) -> str:
     return "\n".join(lines)
 
 
-def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    parser.add_argument("--agents", default="atari,fullyconv,fullyconv_lstm,arfullyconv")
-    parser.add_argument("--sizes", default="32,64")
-    parser.add_argument("--num_envs", type=int, default=16)
-    parser.add_argument("--unroll_length", type=int, default=40)
-    parser.add_argument("--map", default="MoveToBeacon")
-    parser.add_argument("--repeats", type=int, default=3)
-    parser.add_argument("--write", action="store_true")
-    args = parser.parse_args()
+_AGENTS = flags.DEFINE_list("agents", ["atari", "fullyconv", "fullyconv_lstm", "arfullyconv"],
+                           "Networks to measure.")
+_SIZES = flags.DEFINE_list("sizes", ["32", "64"], "Screen and minimap sizes.")
+_NUM_ENVS = flags.DEFINE_integer("num_envs", 16, "Environments stepped together.")
+_UNROLL = flags.DEFINE_integer("unroll_length", 40, "K, agent steps per update.")
+_MAP = flags.DEFINE_string("map", "MoveToBeacon", "Mini-game.")
+_REPEATS = flags.DEFINE_integer("repeats", 3, "Timed calls per part (after a compiling one).")
+_WRITE = flags.DEFINE_bool("write", False, "Replace the section of docs/benchmarks.md.")
+
+
+def main(argv) -> None:
+    del argv
+    sizes = positive_ints("sizes", _SIZES.value)
+    check_positive_int("repeats", _REPEATS.value)
+    configs = [TrainConfig(map_name=_MAP.value, agent=agent, screen_size=size,
+                           minimap_size=size, num_envs=_NUM_ENVS.value,
+                           unroll_length=_UNROLL.value)
+               for size in sizes for agent in _AGENTS.value]  # checks every flag first
     rows = []
-    for size in (int(s) for s in args.sizes.split(",")):
-        for agent in args.agents.split(","):
-            config = TrainConfig(map_name=args.map, agent=agent, screen_size=size,
-                                 minimap_size=size, num_envs=args.num_envs,
-                                 unroll_length=args.unroll_length)
-            rows.append(measure(config, args.repeats))
-            print(table(rows[-1:], "").strip().splitlines()[-1], flush=True)
+    for config in configs:
+        rows.append(measure(config, _REPEATS.value))
+        print(table(rows[-1:], "").strip().splitlines()[-1], flush=True)
     device = jax.devices()[0]
     command = " ".join(["python -m sc2jax.experiments.benchmark_training", *sys.argv[1:]])
     section = SECTION.format(platform=device.platform.upper())
     header = (f"{section}\n\n`{command}` "
-              f"({args.map}, all feature layers, {args.num_envs} environments, K = "
-              f"{args.unroll_length}, {device.platform} {device.device_kind}, "
+              f"({_MAP.value}, all feature layers, {_NUM_ENVS.value} environments, K = "
+              f"{_UNROLL.value}, {device.platform} {device.device_kind}, "
               f"{os.cpu_count()} cores, {platform.machine()}, jax {jax.__version__}). "
               f"Shares are of the whole training step's time.")
     text = table(rows, header)
     print(text)
-    if args.write:
+    if _WRITE.value:
         write_section(os.path.join(os.path.dirname(__file__), "..", "..", "docs",
                                    "benchmarks.md"), text)
 
 
 if __name__ == "__main__":
-    main()
+    app.run(main)

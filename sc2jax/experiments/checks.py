@@ -13,3 +13,15 @@ def check_non_negative_int(name: str, value: object) -> None:
     """Raises ValueError naming `name` unless `value` is an int >= 0 (bools are not)."""
     if isinstance(value, bool) or not isinstance(value, int) or value < 0:
         raise ValueError(f"{name} must be an int >= 0, got {value!r}")
+
+
+def positive_ints(name: str, values) -> list[int]:
+    """A list flag's strings as positive ints; raises ValueError naming `name` otherwise."""
+    try:
+        out = [int(v) for v in values]
+    except ValueError:
+        out = []
+    if not out or any(v < 1 for v in out):
+        raise ValueError(f"--{name} must be a comma-separated list of positive integers, "
+                         f"got {','.join(map(str, values))!r}")
+    return out

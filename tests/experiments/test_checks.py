@@ -1,0 +1,23 @@
+"""The argument checks shared by the experiment modules."""
+
+from __future__ import annotations
+
+import pytest
+
+from sc2jax.experiments.checks import check_positive_int, positive_ints
+
+
+def test_positive_ints_parses_a_list_flag():
+    assert positive_ints("num_envs", ["1", "64", "1024"]) == [1, 64, 1024]
+
+
+@pytest.mark.parametrize("values", [["1", "a"], ["0"], ["-2"], [], ["1.5"]])
+def test_positive_ints_names_the_flag_and_the_bad_value(values):
+    with pytest.raises(ValueError, match="--sizes must be a comma-separated list of positive"):
+        positive_ints("sizes", values)
+
+
+@pytest.mark.parametrize("value", [0, -1, True, 2.0, "3"])
+def test_check_positive_int_rejects(value):
+    with pytest.raises(ValueError, match="repeats must be a positive int"):
+        check_positive_int("repeats", value)
