@@ -26,7 +26,7 @@ from absl import app, flags
 
 from sc2jax.environment import ObservationFormat, observation_spec
 from sc2jax.environment.dense import DenseAction
-from sc2jax.experiments.checks import check_positive_int, positive_ints
+from sc2jax.experiments.checks import check_known, check_positive_int, positive_ints
 from sc2jax.experiments.markdown import write_section
 from sc2jax.losses import Trajectory, make_actor_critic_loss
 from sc2jax.networks import NETWORKS, make_network
@@ -113,9 +113,7 @@ _WRITE = flags.DEFINE_bool("write", False, "Update docs/benchmarks.md.")
 
 def main(argv: Sequence[str]) -> None:
     del argv
-    for name in _NETWORKS.value:
-        if name not in NETWORKS:
-            raise ValueError(f"unknown network {name!r}; allowed: {list(NETWORKS)}")
+    check_known("network", _NETWORKS.value, NETWORKS)
     resolutions = positive_ints("resolutions", _RESOLUTIONS.value)
     steps, envs, repeats = _STEPS.value, _ENVS.value, _REPEATS.value
     for name, value in (("steps", steps), ("envs", envs), ("repeats", repeats)):

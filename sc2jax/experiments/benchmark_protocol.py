@@ -41,6 +41,7 @@ from sc2jax.environment.launcher import launch
 from sc2jax.environment.observation import api_units
 from sc2jax.environment.protos import runtime, sc2api
 from sc2jax.experiments import trainer
+from sc2jax.experiments.checks import check_known
 from sc2jax.experiments.config import TrainConfig
 from sc2jax.experiments.host_actor import HostActor
 from sc2jax.experiments.machine import machine
@@ -163,9 +164,7 @@ def actor_steps_per_second(root, map_name: str, processes: int, agent_name: str,
 
 def main(argv: Sequence[str]) -> None:
     del argv
-    for name in FLAGS.maps:
-        if name not in MAPS:
-            raise ValueError(f"unknown map {name!r}; the simulator has {sorted(MAPS)}")
+    check_known("map", FLAGS.maps, MAPS)
     for name in ("steps", "parses"):
         if getattr(FLAGS, name) < 1:
             raise ValueError(f"--{name} must be positive, got {getattr(FLAGS, name)}")

@@ -25,3 +25,10 @@ def positive_ints(name: str, values) -> list[int]:
         raise ValueError(f"--{name} must be a comma-separated list of positive integers, "
                          f"got {','.join(map(str, values))!r}")
     return out
+
+
+def check_known(kind: str, names, allowed) -> None:
+    """Raises ValueError naming the first of `names` not in `allowed`, and what is allowed."""
+    for name in names:
+        if name not in allowed:
+            raise ValueError(f"unknown {kind} {name!r}; allowed: {sorted(allowed)}")

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import pytest
 
-from sc2jax.experiments.checks import check_positive_int, positive_ints
+from sc2jax.experiments.checks import check_known, check_positive_int, positive_ints
 
 
 def test_positive_ints_parses_a_list_flag():
@@ -21,3 +21,9 @@ def test_positive_ints_names_the_flag_and_the_bad_value(values):
 def test_check_positive_int_rejects(value):
     with pytest.raises(ValueError, match="repeats must be a positive int"):
         check_positive_int("repeats", value)
+
+
+def test_check_known_names_the_unknown_value_and_what_is_allowed():
+    check_known("map", ["b", "a"], {"a", "b"})
+    with pytest.raises(ValueError, match=r"unknown map 'c'; allowed: \['a', 'b'\]"):
+        check_known("map", ["a", "c"], {"b", "a"})
