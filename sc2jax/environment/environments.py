@@ -23,7 +23,7 @@ import numpy as np
 from sc2jax.environment import specs
 from sc2jax.environment.dense import DenseAction, check_dense_action, to_dense
 from sc2jax.environment.functions import FUNCTIONS, FunctionCall, validate_function_call
-from sc2jax.environment.minigames import MAPS
+from sc2jax.environment.minigames import MAPS, check_map
 from sc2jax.environment.simulator import EnvParams, Simulator
 
 _UNIT_ROW_KEYS = ("single_select", "multi_select", "build_queue", "cargo", "feature_units",
@@ -319,8 +319,7 @@ def make(map_name: str, screen_size: specs.Size = 64, minimap_size: specs.Size =
         raise ValueError(f"backend {backend!r} is not allowed; expected 'simulator' or 'sc2'")
     if bot is not None or sc2path is not None:
         raise ValueError("bot and sc2path apply to backend='sc2' only")
-    if not isinstance(map_name, str) or map_name not in MAPS:
-        raise ValueError(f"unknown map {map_name!r}; the simulator has {sorted(MAPS)}")
+    check_map(map_name)
     fmt = specs.ObservationFormat(
         screen_size=screen_size, minimap_size=minimap_size,
         screen_features=None if screen_features is None else tuple(screen_features),

@@ -10,7 +10,7 @@ from __future__ import annotations
 import dataclasses
 
 from sc2jax.environment.game_env import Bot
-from sc2jax.environment.minigames import MAPS
+from sc2jax.environment.minigames import check_map
 from sc2jax.environment.specs import ObservationFormat
 from sc2jax.experiments.actor import function_mask
 from sc2jax.experiments.checks import check_non_negative_int, check_positive_int
@@ -93,9 +93,8 @@ class TrainConfig:
             raise ValueError(f"unknown backend {self.backend!r}; allowed: {list(BACKENDS)}")
         if not isinstance(self.map_name, str) or not self.map_name:
             raise ValueError(f"map_name must be a non-empty str, got {self.map_name!r}")
-        if self.backend == "simulator" and self.map_name not in MAPS:
-            raise ValueError(f"unknown map {self.map_name!r}; allowed: {sorted(MAPS)} (or "
-                             f"any map of the game with backend 'sc2')")
+        if self.backend == "simulator":
+            check_map(self.map_name, " (or any map of the game with backend 'sc2')")
         if self.bot is not None:
             if self.backend != "sc2":
                 raise ValueError(f"bot {self.bot!r} needs backend 'sc2' (the simulator's "

@@ -3,7 +3,8 @@
 import numpy as np
 import pytest
 
-from sc2jax.environment import ObservationFormat, action_spec, observation_spec
+from sc2jax.environment import ObservationFormat, action_spec, make, observation_spec
+from sc2jax.environment.minigames import get_map
 
 
 def test_pysc2_layout_shapes():
@@ -70,3 +71,12 @@ def test_action_spec():
     assert spec.queued.maximum == 1
     for s in spec:
         s.validate(s.generate_value())
+
+
+@pytest.mark.parametrize("name", ["Nope", "movetobeacon", None])
+def test_unknown_map_lists_the_maps(name):
+    allowed = r"unknown map .*; the simulator has \['BuildMarines', 'CollectMineralShards'"
+    with pytest.raises(ValueError, match=allowed):
+        get_map(name)
+    with pytest.raises(ValueError, match=allowed):
+        make(name)

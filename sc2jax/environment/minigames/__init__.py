@@ -18,12 +18,18 @@ MAPS = {
 }
 
 
+def check_map(name, note: str = "") -> None:
+    """Raises ValueError, listing the known maps (then `note`), unless the simulator has
+    a map called `name`."""
+    if not isinstance(name, str) or name not in MAPS:
+        raise ValueError(f"unknown map {name!r}; the simulator has {sorted(MAPS)}{note}")
+
+
 def get_map(name: str) -> MiniGame:
     """Returns the mini-game called `name`.
 
     Raises:
       ValueError: for an unknown name, listing the known ones.
     """
-    if not isinstance(name, str) or name not in MAPS:
-        raise ValueError(f"unknown map {name!r}; the simulator has {sorted(MAPS)}")
+    check_map(name)
     return MAPS[name]()
