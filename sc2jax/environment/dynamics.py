@@ -20,7 +20,7 @@ import jax.numpy as jnp
 
 from sc2jax.environment import harvest
 from sc2jax.environment.geometry import squared_length
-from sc2jax.environment.state import NO_TARGET, Order, Owner, Units
+from sc2jax.environment.state import NO_TARGET, Order, Owner, Units, leading_slots
 from sc2jax.environment.units import UNIT_DATA, Attribute
 
 # A move order ends within this distance of its goal, or when the unit is blocked
@@ -189,9 +189,9 @@ def game_loop(units: Units, key, playable, bursts: bool = False, workers: bool =
     # Working workers, and SCVs on their way to a building site, pass through other units
     # (without path finding, a worker would stick behind structures on its way).
     passes = gathering | (order == Order.BUILD)
-    c = n if colliders is None else colliders
-    new_pos = new_pos.at[:c].set(_resolve_collisions(
-        new_pos[:c], (alive & ~passes)[:c], jax.tree.map(lambda x: x[:c], data)))
+    first = lambda tree: leading_slots(tree, colliders)  # noqa: E731
+    new_pos = new_pos.at[:len(first(new_pos))].set(_resolve_collisions(
+        first(new_pos), first(alive & ~passes), first(data)))
     x0, y0, x1, y1 = playable
     new_pos = jnp.clip(new_pos, jnp.array([x0, y0]), jnp.array([x1, y1]))
     new_pos = jnp.where(alive[:, None], new_pos, pos)

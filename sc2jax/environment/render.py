@@ -25,7 +25,7 @@ from sc2jax.environment.geometry import (
     squared_length,
 )
 from sc2jax.environment.specs import ObservationFormat
-from sc2jax.environment.state import EnvState, Owner, Units
+from sc2jax.environment.state import EnvState, Owner, Units, leading_slots
 from sc2jax.environment.units import UNIT_DATA, UnitType
 
 # Drawing order: higher layers are drawn over lower ones.
@@ -154,8 +154,7 @@ def eyes(units: Units, own_slots: int | None = None):
     of each of the player's live units and -1 elsewhere: no point is within -1 of
     anything.
     """
-    if own_slots is not None:
-        units = jax.tree.map(lambda x: x[:own_slots], units)
+    units = leading_slots(units, own_slots)
     sight = jnp.asarray(UNIT_DATA.sight)[units.type]
     looks = units.alive & (units.owner == Owner.SELF)
     return units.pos, jnp.where(looks, sight * sight, -1.0)

@@ -25,6 +25,12 @@ BUILD_QUEUE = 5
 NO_TARGET = -1
 
 
+def leading_slots(tree, k: int | None):
+    """The first k slots of every array of a per-slot pytree (`Units`, unit-data rows,
+    or a single [N, ...] array); the whole tree for None."""
+    return tree if k is None else jax.tree.map(lambda x: x[:k], tree)
+
+
 class Order(enum.IntEnum):
     """What a unit is doing. `NONE` is idle."""
 
