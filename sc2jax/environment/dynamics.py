@@ -190,8 +190,8 @@ def game_loop(units: Units, key, playable, bursts: bool = False, workers: bool =
     # (without path finding, a worker would stick behind structures on its way).
     passes = gathering | (order == Order.BUILD)
     first = lambda tree: leading_slots(tree, colliders)  # noqa: E731
-    new_pos = new_pos.at[:len(first(new_pos))].set(_resolve_collisions(
-        first(new_pos), first(alive & ~passes), first(data)))
+    pushed = _resolve_collisions(first(new_pos), first(alive & ~passes), first(data))
+    new_pos = new_pos.at[:len(pushed)].set(pushed)
     x0, y0, x1, y1 = playable
     new_pos = jnp.clip(new_pos, jnp.array([x0, y0]), jnp.array([x1, y1]))
     new_pos = jnp.where(alive[:, None], new_pos, pos)
