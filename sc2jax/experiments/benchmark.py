@@ -32,7 +32,8 @@ from absl import app, flags, logging
 
 from sc2jax.environment import MAPS, ObservationFormat, Simulator
 from sc2jax.environment.agents.random_agent import random_action
-from sc2jax.experiments.checks import check_known, positive_ints
+from sc2jax.environment.minigames import check_map
+from sc2jax.experiments.checks import positive_ints
 from sc2jax.experiments.machine import machine
 from sc2jax.experiments.markdown import write_section
 
@@ -220,7 +221,8 @@ def markdown(results: Sequence[Result], smax: dict[int, Result], command: str,
 
 def main(argv: Sequence[str]) -> None:
     del argv
-    check_known("map", FLAGS.maps, MAPS)
+    for name in FLAGS.maps:
+        check_map(name)
     counts = positive_ints("num_envs", FLAGS.num_envs)
     if len(set(counts)) != len(counts):
         raise ValueError(f"--num_envs must be distinct positive integers, got {counts}")

@@ -32,16 +32,16 @@ import jax
 import numpy as np
 from absl import app, flags, logging
 
-from sc2jax.environment import MAPS, make, proto_observation
+from sc2jax.environment import make, proto_observation
 from sc2jax.environment.controller import Controller
 from sc2jax.environment.functions import FUNCTIONS, FunctionCall
 from sc2jax.environment.game_env import GameEnv, GameEnvBatch
 from sc2jax.environment.install_layout import write_sc2path
 from sc2jax.environment.launcher import launch
+from sc2jax.environment.minigames import check_map
 from sc2jax.environment.observation import api_units
 from sc2jax.environment.protos import runtime, sc2api
 from sc2jax.experiments import trainer
-from sc2jax.experiments.checks import check_known
 from sc2jax.experiments.config import TrainConfig
 from sc2jax.experiments.host_actor import HostActor
 from sc2jax.experiments.machine import machine
@@ -164,7 +164,8 @@ def actor_steps_per_second(root, map_name: str, processes: int, agent_name: str,
 
 def main(argv: Sequence[str]) -> None:
     del argv
-    check_known("map", FLAGS.maps, MAPS)
+    for name in FLAGS.maps:
+        check_map(name)
     for name in ("steps", "parses"):
         if getattr(FLAGS, name) < 1:
             raise ValueError(f"--{name} must be positive, got {getattr(FLAGS, name)}")
