@@ -40,20 +40,20 @@ _PLAYER_RELATIVE = {Owner.SELF: PlayerRelative.SELF, Owner.ENEMY: PlayerRelative
                     Owner.NEUTRAL: PlayerRelative.NEUTRAL}
 
 
-PACKING = {
-    "unit_type": (0, 0, 11),
-    "player_relative": (0, 11, 3),
-    "player_id": (0, 14, 5),
-    "selected": (0, 19, 1),
-    "unit_hit_points_ratio": (0, 20, 8),
-    "unit_hit_points": (1, 0, 13),
-    "unit_energy": (1, 13, 10),
-    "unit_energy_ratio": (1, 23, 8),
-    "unit_shields": (2, 0, 11),
-    "unit_shields_ratio": (2, 11, 8),
-    "build_progress": (2, 19, 8),
+FIELD_BITS = {
+    "unit_type": 11,
+    "player_relative": 3,
+    "player_id": 5,
+    "selected": 1,
+    "unit_hit_points_ratio": 8,
+    "unit_hit_points": 13,
+    "unit_energy": 10,
+    "unit_energy_ratio": 8,
+    "unit_shields": 11,
+    "unit_shields_ratio": 8,
+    "build_progress": 8,
 }
-"""Per-unit layer -> (word, bit shift, bits): how `Renderer` packs per-unit values.
+"""Per-unit layer -> the bits of its field in the packed per-unit words (`pack_fields`).
 Values beyond a field's bits are clipped (hit points at 8191, energy at 1023, shields at
 2047; no unit reaches these)."""
 
@@ -104,25 +104,25 @@ def materialize(x):
     return x.at[row].set(x[:1])
 
 
-def paint(pixel_pos, pixel_radius, rank, shown, size, box: int, with_density: bool = False):
-    """Draws units as discs on a pixel grid, keeping the highest rank at each pixel.
+def paint(pixel_pos, pixel_radius, keys, shown, size, box: int, with_density: bool = False):
+    """Draws units as discs on a pixel grid, keeping the highest key at each pixel.
 
     A unit covers the pixels whose centres lie within its radius, and always the pixel
     holding its centre. Each unit is drawn inside a `box` x `box` window around its
-    centre pixel (box must cover the largest radius), with one scatter per window.
+    centre pixel (box must cover the largest radius), with one scatter per key.
 
     Args:
       pixel_pos: float32[N, 2] continuous pixel coordinates (x, y) of unit centres.
       pixel_radius: float32[N] radii in pixels.
-      rank: int32[N] >= 0 drawing priority (distinct per unit).
+      keys: a list of int32[N] >= 0: what each unit writes, one canvas per key. A pixel
+        keeps the highest key of the units covering it, and 0 where none does.
       shown: bool[N] units that may be drawn.
       size: (width, height) in pixels.
       box: odd window size, >= 2 * ceil(max radius + 0.5) + 1.
       with_density: also count the units covering each pixel.
 
     Returns:
-      (top int32[H, W]: the highest rank drawn at each pixel or -1,
-       density int32[H, W] or None).
+      (list of int32[H, W], one per key; density int32[H, W] or None).
     """
     w, h = size
     offsets = jnp.arange(box) - box // 2
@@ -138,12 +138,45 @@ def paint(pixel_pos, pixel_radius, rank, shown, size, box: int, with_density: bo
     in_bounds = ((py >= 0) & (py < h))[:, :, None] & ((px >= 0) & (px < w))[:, None, :]
     drawn = inside & in_bounds & shown[:, None, None]
     index = jnp.where(drawn, py[:, :, None] * w + px[:, None, :], h * w).reshape(-1)
-    ranks = jnp.broadcast_to(rank[:, None, None], drawn.shape).reshape(-1)
-    top = jnp.full((h * w + 1,), -1, jnp.int32).at[index].max(ranks)[:h * w].reshape(h, w)
+    canvases = []
+    for key in keys:
+        values = jnp.broadcast_to(key[:, None, None], drawn.shape).reshape(-1)
+        canvases.append(jnp.zeros((h * w + 1,), jnp.int32).at[index].max(values)[:h * w]
+                        .reshape(h, w))
     density = None
     if with_density:
         density = jnp.zeros((h * w + 1,), jnp.int32).at[index].add(1)[:h * w].reshape(h, w)
-    return top, density
+    return canvases, density
+
+
+def pack_fields(names, word_bits: int) -> dict[str, tuple[int, int, int]]:
+    """Packs the named per-unit layers' fields (`FIELD_BITS`) into words of `word_bits`.
+
+    Fields go into the words in `FIELD_BITS` order, each into the first word with room.
+
+    Returns:
+      name -> (word, bit shift, bits).
+    """
+    packing, used = {}, []
+    for name, bits in FIELD_BITS.items():
+        if name not in names:
+            continue
+        word = next((k for k, u in enumerate(used) if u + bits <= word_bits), len(used))
+        if word == len(used):
+            used.append(0)
+        packing[name] = (word, used[word], bits)
+        used[word] += bits
+    return packing
+
+
+def paints_every_word(num_slots: int, box: int, size) -> bool:
+    """Whether `Renderer` paints every packed word, or only the first.
+
+    Each `paint` key costs a scatter of N * box^2 values. Where that is more than half
+    the pixels (large units, many slots), only the first word is painted, and the
+    others are looked up by the top unit's slot, which the first word's key holds.
+    """
+    return num_slots * box * box <= size[0] * size[1] // 2
 
 
 def eyes(units: Units, own_slots: int | None = None):
@@ -187,10 +220,22 @@ def box_size(max_radius_pixels: float) -> int:
     return 2 * int(np.ceil(max_radius_pixels + 0.5)) + 1
 
 
+def slot_bits(num_slots: int) -> int:
+    """The bits of a slot index in a `draw_rank`."""
+    return max(num_slots - 1, 1).bit_length()
+
+
 def draw_rank(units: Units):
-    """int32[N]: drawing priority, higher on top (layer, then slot)."""
+    """int32[N]: drawing priority, distinct, higher on top: the render layer, then the
+    slot (in the low `slot_bits`). Below `rank_bound(N)`."""
     n = units.num_slots
-    return jnp.asarray(_RENDER_LAYER)[units.type] * n + jnp.arange(n, dtype=jnp.int32)
+    return ((jnp.asarray(_RENDER_LAYER)[units.type] << slot_bits(n))
+            | jnp.arange(n, dtype=jnp.int32))
+
+
+def rank_bound(num_slots: int) -> int:
+    """The bound of `draw_rank` for this many slots."""
+    return int(_RENDER_LAYER.max() + 1) << slot_bits(num_slots)
 
 
 def pick_unit(units: Units, shown, pixel_pos, pixel_radius, pixel):
@@ -202,7 +247,7 @@ def pick_unit(units: Units, shown, pixel_pos, pixel_radius, pixel):
                  & (jnp.floor(pixel_pos[:, 1]).astype(jnp.int32) == pixel[1]))
     cover = (inside | at_centre) & shown
     best = jnp.max(jnp.where(cover, draw_rank(units), -1))
-    return jnp.where(best >= 0, best % units.num_slots, -1)
+    return jnp.where(best >= 0, best & ((1 << slot_bits(units.num_slots)) - 1), -1)
 
 
 class Renderer:
@@ -288,7 +333,7 @@ class Renderer:
         """Renders the named layers of one view (screen or minimap).
 
         Every layer is a bit field of one of a few int32 planes: the packed per-unit words
-        of the top unit at each pixel (`PACKING`), the unit density, and the packed map
+        of the top unit at each pixel (`pack_fields`), the unit density, and the packed map
         layers (`TERRAIN_PACKING`). The planes are computed once and the layers are cut
         out of them in one pass that writes the output directly.
 
@@ -305,16 +350,28 @@ class Renderer:
           int32[len(names), H, W].
         """
         units = state.units
+        n = units.num_slots
         unit_names = [name for name in names
-                      if name in PACKING and name not in self.zero_layers]
+                      if name in FIELD_BITS and name not in self.zero_layers]
         wants_density = any(name in DENSITY for name in names)
+        # A paint key is the unit's rank + 1 above one of its packed words, so a pixel
+        # keeps the top unit's word, and 0 where no unit is.
+        word_bits = 31 - rank_bound(n).bit_length()
+        packing = pack_fields(unit_names, word_bits)
+        keys = self._unit_keys(units, packing, word_bits)
+        painted = keys if paints_every_word(n, box, size) else keys[:1]
         planes: dict[str, jnp.ndarray] = {}
         if unit_names or wants_density:
-            top, density = paint(pixel_pos, pixel_radius, draw_rank(units),
-                                 self.units_shown(state), size, box, wants_density)
+            words, density = paint(pixel_pos, pixel_radius, painted, self.units_shown(state),
+                                   size, box, wants_density)
             if wants_density:
                 planes["density"] = density
-            planes.update(self._unit_words(units, unit_names, top))
+            if len(keys) > len(words):
+                rank = words[0] >> word_bits
+                top = jnp.where(rank > 0, (rank - 1) & ((1 << slot_bits(n)) - 1), n)
+                words += [jnp.concatenate([key, jnp.zeros(1, jnp.int32)])[top]
+                          for key in keys[len(words):]]
+            planes.update({f"word{k}": word for k, word in enumerate(words)})
         terrain = self._terrain_plane(state, xs, ys, names, extra_bits)
         if terrain is not None:
             planes["terrain"] = terrain
@@ -322,7 +379,7 @@ class Renderer:
         source, shift, mask, multiplier, cap = [], [], [], [], []
         for name in names:
             if name in unit_names:
-                word, bit, bits = PACKING[name]
+                word, bit, bits = packing[name]
                 plane, scale, top_value = f"word{word}", 1, None
             elif name in DENSITY:
                 plane, bit, bits = "density", 0, 31
@@ -346,32 +403,24 @@ class Renderer:
             layers = jnp.minimum(layers * column(multiplier), column(cap))
         return layers
 
-    def _unit_words(self, units: Units, names, top) -> dict:
-        """The packed per-unit words (`PACKING`) of each pixel's top unit.
+    def _unit_keys(self, units: Units, packing: dict, word_bits: int) -> list:
+        """Each unit's paint keys: its `draw_rank` + 1 above each of its packed words.
 
-        Layers are bit-packed into at most three int32 words per unit, so a pixel needs one
-        table lookup per word rather than one per layer. Layers that are zero for every
-        unit type of the map (energy and shields on these maps) cost no lookup.
+        Layers are bit-packed into a few words per unit (`pack_fields`), so `paint`
+        draws the top unit's layer values directly: one scatter per word, and no
+        per-pixel lookup of the top unit. Layers that are zero for every unit type of
+        the map (energy and shields on these maps) take no bits.
 
         Returns:
-          "word{k}" -> int32[H, W], for the words `names` use.
+          int32[N] keys, one per word.
         """
-        n = units.num_slots
         per_unit = self._unit_values(units)
-        rows = jnp.where(top >= 0, top % n, n)
-        words: dict[int, list[str]] = {}
-        for name in names:
-            words.setdefault(PACKING[name][0], []).append(name)
-        out = {}
-        for word, fields in sorted(words.items()):
-            packed = jnp.zeros(n, jnp.int32)
-            for name in fields:
-                _, shift, bits = PACKING[name]
-                value = jnp.clip(per_unit[name](), 0, (1 << bits) - 1)
-                packed = packed | jnp.left_shift(value.astype(jnp.int32), shift)
-            table = jnp.concatenate([packed, jnp.zeros(1, jnp.int32)])
-            out[f"word{word}"] = table[rows]
-        return out
+        rank = jnp.left_shift(draw_rank(units) + 1, word_bits)
+        keys = [rank] * (max((w for w, _, _ in packing.values()), default=-1) + 1)
+        for name, (word, shift, bits) in packing.items():
+            value = jnp.clip(per_unit[name](), 0, (1 << bits) - 1).astype(jnp.int32)
+            keys[word] = keys[word] | jnp.left_shift(value, shift)
+        return keys
 
     def screen(self, state: EnvState):
         """int32[len(screen_layers), H, W]."""

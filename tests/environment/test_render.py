@@ -1,9 +1,17 @@
-"""The renderer's fusion barrier is an identity, alone, jitted and under vmap."""
+"""The renderer against a direct per-pixel reference, and its fusion barrier."""
 
 import jax
 import numpy as np
+import pytest
 
-from sc2jax.environment.render import materialize
+from sc2jax.environment import render
+from sc2jax.environment.render import materialize, ratio_255
+from sc2jax.environment.state import Owner
+from sc2jax.environment.units import UNIT_DATA
+
+from .conftest import PARAMS, compiled, random_actor, small_sim
+
+_RELATIVE = {Owner.SELF: 1, Owner.ENEMY: 4, Owner.NEUTRAL: 3}
 
 
 def test_materialize_is_an_identity():
@@ -15,3 +23,93 @@ def test_materialize_is_an_identity():
     # Inside a larger program, where XLA may fuse around it.
     doubled = jax.jit(lambda a: materialize(a * 2)[np.array([2, 0, 3])] >> 1)(x)
     np.testing.assert_array_equal(doubled, x[[2, 0, 3]])
+
+
+def test_pack_fields_fit_their_words_without_overlap():
+    for word_bits in (21, 24):
+        packing = render.pack_fields(render.FIELD_BITS, word_bits)
+        assert set(packing) == set(render.FIELD_BITS)
+        used = {}
+        for name, (word, shift, bits) in packing.items():
+            assert bits == render.FIELD_BITS[name] and shift + bits <= word_bits
+            mask = ((1 << bits) - 1) << shift
+            assert used.get(word, 0) & mask == 0
+            used[word] = used.get(word, 0) | mask
+
+
+def reference_screen(sim, state) -> dict:
+    """The per-unit screen layers by the documented rule, pixel by pixel (numpy): a unit
+    covers the pixels whose centres lie within its radius and the pixel holding its
+    centre; the top unit is the highest render layer, then the highest slot."""
+    units = jax.tree_util.tree_map(np.asarray, state.units)
+    camera = sim.renderer.camera
+    shown = np.asarray(sim.renderer.units_shown(state))
+    pos = np.asarray(camera.world_to_pixel(state.camera, state.units.pos), np.float32)
+    radius = (UNIT_DATA.radius[units.type] * np.float32(camera.pixels_per_unit)).astype(
+        np.float32)
+    w, h = camera.size
+    ys, xs = np.mgrid[0:h, 0:w]
+    dx = xs[..., None].astype(np.float32) + np.float32(0.5) - pos[:, 0]
+    dy = ys[..., None].astype(np.float32) + np.float32(0.5) - pos[:, 1]
+    centre = (np.floor(pos[:, 0]) == xs[..., None]) & (np.floor(pos[:, 1]) == ys[..., None])
+    cover = shown & ((dy ** 2 + dx ** 2 <= radius * radius) | centre)  # [H, W, N]
+    n = units.type.shape[0]
+    rank = render._RENDER_LAYER[units.type] * n + np.arange(n)
+    top = np.argmax(np.where(cover, rank, -1), axis=-1)
+    covered = cover.any(-1)
+
+    def layer(per_unit):
+        return np.where(covered, np.asarray(per_unit)[top], 0)
+
+    density = cover.sum(-1)
+    return {
+        "unit_type": layer(UNIT_DATA.sc2_id[units.type]),
+        "player_relative": layer([_RELATIVE.get(int(o), 0) for o in units.owner]),
+        "player_id": layer(units.owner),
+        "selected": layer(units.selected),
+        "unit_hit_points": layer(np.ceil(units.health)),
+        "unit_hit_points_ratio": layer(ratio_255(units.health,
+                                                 UNIT_DATA.max_health[units.type])),
+        "unit_density": np.minimum(density, 15),
+        "unit_density_aa": np.minimum(density * 16, 255),
+    }
+
+
+def _random_states(sim, seed: int, steps: int):
+    """States of a random episode, each also with three slots moved to overlap at the
+    camera's centre (slot 1 over slot 0, the last slot under them)."""
+    reset, step = compiled(sim)
+    act = random_actor(sim.fmt.types)
+    key = jax.random.PRNGKey(seed)
+    state, ts = reset(key, PARAMS)
+    out = []
+    for _ in range(steps):
+        key, k = jax.random.split(key)
+        state, ts = step(state, act(k, ts.observation["available_actions"]), PARAMS)
+        centre = np.asarray(state.camera)
+        pos = np.array(state.units.pos)
+        pos[[0, 1, -1]] = centre + np.array([[0.2, -0.2], [0.3, -0.1], [0.1, -0.3]])
+        out += [state, state.replace(units=state.units.replace(pos=pos))]
+    return out
+
+
+@pytest.mark.parametrize("map_name,paints_every_word", [
+    ("CollectMineralShards", True), ("FindAndDefeatZerglings", True),
+    ("BuildMarines", False), ("CollectMineralShards", False)])
+def test_unit_layers_match_the_per_pixel_reference(map_name, paints_every_word,
+                                                   monkeypatch):
+    sim = small_sim(map_name)
+    states = _random_states(sim, seed=5, steps=12)
+    size = sim.renderer.camera.size
+    assert render.paints_every_word(len(states[0].units.type), sim.renderer.screen_box,
+                                    size) == (paints_every_word or map_name != "BuildMarines")
+    monkeypatch.setattr(render, "paints_every_word", lambda *_: paints_every_word)
+    screen = jax.jit(sim.renderer.screen)
+    names = [f.name for f in sim.fmt.screen_layers]
+    covered = 0
+    for state in states:
+        got = np.asarray(screen(state))
+        for name, want in reference_screen(sim, state).items():
+            np.testing.assert_array_equal(got[names.index(name)], want, err_msg=name)
+        covered += int((got[names.index("unit_density")] > 1).sum())
+    assert covered > 0  # Some pixels had overlapping units, so the draw order was tested.
