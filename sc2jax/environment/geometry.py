@@ -14,6 +14,8 @@ import dataclasses
 import jax.numpy as jnp
 import numpy as np
 
+from sc2jax.environment.fusion import materialize
+
 CAMERA_WIDTH = 24.0
 
 
@@ -154,6 +156,9 @@ def cell_lookup(grid: np.ndarray, map_height: int, xs, ys, fill=0):
     h, w = grid.shape
     cx = jnp.floor(xs).astype(jnp.int32)
     cy = (map_height - 1 - jnp.floor(ys)).astype(jnp.int32)
-    inside = ((cy >= 0) & (cy < h))[:, None] & ((cx >= 0) & (cx < w))[None, :]
-    values = jnp.asarray(grid)[jnp.clip(cy, 0, h - 1)[:, None], jnp.clip(cx, 0, w - 1)[None, :]]
+    # Column and row cells, -1 outside the map: computed once, not per pixel.
+    cx = materialize(jnp.where((cx >= 0) & (cx < w), cx, -1))
+    cy = materialize(jnp.where((cy >= 0) & (cy < h), cy, -1))
+    inside = (cy >= 0)[:, None] & (cx >= 0)[None, :]
+    values = jnp.asarray(grid)[jnp.maximum(cy, 0)[:, None], jnp.maximum(cx, 0)[None, :]]
     return jnp.where(inside, values, jnp.asarray(fill, values.dtype))

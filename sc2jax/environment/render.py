@@ -11,11 +11,11 @@ from __future__ import annotations
 
 from collections.abc import Callable
 
-import jax
 import jax.numpy as jnp
 import numpy as np
 
 from sc2jax.environment.features import PlayerRelative, Visibility
+from sc2jax.environment.fusion import materialize
 from sc2jax.environment.geometry import (
     Camera,
     MapGeometry,
@@ -83,25 +83,6 @@ def ratio_255(value, maximum):
     for numpy inputs (the same float32 arithmetic)."""
     xp = array_module(value)
     return xp.where(maximum > 0, (value / xp.maximum(maximum, 1e-6) * 255), 0).astype(xp.int32)
-
-
-def materialize(x):
-    """x, computed once: a fusion barrier for XLA's CPU backend.
-
-    Left to itself, XLA fuses everything that computes the planes into the loop that cuts
-    the layers out of them, and so recomputes a pixel's planes (the top unit's packed
-    words, the terrain lookup) for each of the 27 screen layers. `optimization_barrier`
-    alone does not stop this on CPU (the backend expands barriers before fusing). An
-    in-place update of x does: XLA writes x to a buffer before updating it. The update
-    writes x's own first row back at an index hidden behind a barrier (a constant index
-    would let XLA see through it), so it is an identity that costs one row.
-
-    Args:
-      x: an array of rank >= 1.
-    """
-    x = jnp.asarray(x)
-    row = jax.lax.optimization_barrier(jnp.zeros(1, jnp.int32))
-    return x.at[row].set(x[:1])
 
 
 def paint(pixel_pos, pixel_radius, keys, shown, size, box: int, with_density: bool = False):

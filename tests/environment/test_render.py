@@ -5,7 +5,8 @@ import numpy as np
 import pytest
 
 from sc2jax.environment import render
-from sc2jax.environment.render import materialize, ratio_255
+from sc2jax.environment.fusion import materialize
+from sc2jax.environment.render import ratio_255
 from sc2jax.environment.state import Owner
 from sc2jax.environment.units import UNIT_DATA
 

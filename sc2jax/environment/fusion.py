@@ -1,0 +1,26 @@
+"""`materialize`: a fusion barrier for XLA's CPU backend."""
+
+from __future__ import annotations
+
+import jax
+import jax.numpy as jnp
+
+
+def materialize(x):
+    """x, computed once: a fusion barrier for XLA's CPU backend.
+
+    Left to itself, XLA fuses a small array's computation into each loop that reads it,
+    and recomputes it per element read: the renderer's planes (the top unit's packed
+    words, the terrain) for each of the 27 screen layers cut out of them, or a view's
+    row and column cells for each pixel. `optimization_barrier` alone does not stop
+    this on CPU (the backend expands barriers before fusing). An in-place update of x
+    does: XLA writes x to a buffer before updating it. The update writes x's own first
+    row back at an index hidden behind a barrier (a constant index would let XLA see
+    through it), so it is an identity that costs one row.
+
+    Args:
+      x: an array of rank >= 1.
+    """
+    x = jnp.asarray(x)
+    row = jax.lax.optimization_barrier(jnp.zeros(1, jnp.int32))
+    return x.at[row].set(x[:1])
