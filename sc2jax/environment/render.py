@@ -188,8 +188,11 @@ def sight_grid(units: Units, xs, ys, own_slots: int | None = None):
         player's units (`MiniGame.own_slots`); only those are looked through.
     """
     pos, reach = eyes(units, own_slots)
-    dx2 = (xs[None, :] - pos[:, 0, None]) ** 2
-    dy2 = (ys[None, :] - pos[:, 1, None]) ** 2
+    # Each unit's squared distances along the columns and rows, computed once, not per
+    # pixel.
+    dx2 = materialize((xs[None, :] - pos[:, 0, None]) ** 2)
+    dy2 = materialize((ys[None, :] - pos[:, 1, None]) ** 2)
+    reach = materialize(reach)
     seen = jnp.zeros((ys.shape[0], xs.shape[0]), bool)
     for i in range(len(reach)):
         seen = seen | (dy2[i][:, None] + dx2[i][None, :] <= reach[i])
