@@ -137,11 +137,18 @@ def pack_fields(names, word_bits: int) -> dict[str, tuple[int, int, int]]:
 
     Returns:
       name -> (word, bit shift, bits).
+
+    Raises:
+      ValueError: a field is wider than a word (word_bits shrinks as the draw rank
+        needs more bits: with more than 32,768 unit slots).
     """
     packing, used = {}, []
     for name, bits in FIELD_BITS.items():
         if name not in names:
             continue
+        if bits > word_bits:
+            raise ValueError(f"the {name} field ({bits} bits) does not fit in a {word_bits}-bit "
+                             f"word; allowed: word_bits >= {max(FIELD_BITS.values())}")
         word = next((k for k, u in enumerate(used) if u + bits <= word_bits), len(used))
         if word == len(used):
             used.append(0)

@@ -36,6 +36,8 @@ def test_pack_fields_fit_their_words_without_overlap():
             mask = ((1 << bits) - 1) << shift
             assert used.get(word, 0) & mask == 0
             used[word] = used.get(word, 0) | mask
+    with pytest.raises(ValueError, match=r"unit_hit_points field \(13 bits\) does not fit"):
+        render.pack_fields(render.FIELD_BITS, 12)
 
 
 def reference_screen(sim, state) -> dict:
