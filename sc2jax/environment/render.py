@@ -229,6 +229,11 @@ def rank_bound(num_slots: int) -> int:
     return int(_RENDER_LAYER.max() + 1) << slot_bits(num_slots)
 
 
+def rank_slot(rank, num_slots: int):
+    """The slot of a `draw_rank` (int32, any shape)."""
+    return rank & ((1 << slot_bits(num_slots)) - 1)
+
+
 def pick_unit(units: Units, shown, pixel_pos, pixel_radius, pixel):
     """The slot drawn on top at one pixel (int32[2] x, y), or -1: what a click selects."""
     dx = pixel[0].astype(jnp.float32) + 0.5 - pixel_pos[:, 0]
@@ -238,7 +243,7 @@ def pick_unit(units: Units, shown, pixel_pos, pixel_radius, pixel):
                  & (jnp.floor(pixel_pos[:, 1]).astype(jnp.int32) == pixel[1]))
     cover = (inside | at_centre) & shown
     best = jnp.max(jnp.where(cover, draw_rank(units), -1))
-    return jnp.where(best >= 0, best & ((1 << slot_bits(units.num_slots)) - 1), -1)
+    return jnp.where(best >= 0, rank_slot(best, units.num_slots), -1)
 
 
 class Renderer:
@@ -359,7 +364,7 @@ class Renderer:
                 planes["density"] = density
             if len(keys) > len(words):
                 rank = words[0] >> word_bits
-                top = jnp.where(rank > 0, (rank - 1) & ((1 << slot_bits(n)) - 1), n)
+                top = jnp.where(rank > 0, rank_slot(rank - 1, n), n)
                 words += [jnp.concatenate([key, jnp.zeros(1, jnp.int32)])[top]
                           for key in keys[len(words):]]
             planes.update({f"word{k}": word for k, word in enumerate(words)})
