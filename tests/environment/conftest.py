@@ -38,27 +38,39 @@ def random_actor(types):
     return jax.jit(functools.partial(random_action, types=types))
 
 
-def random_episode(sim: Simulator, seed: int, steps: int, start_loop: int = 0):
-    """Runs `steps` random steps (auto-resetting) from a reset with `seed`, its clock
+def random_play(sim: Simulator, seed: int, steps: int, start_loop: int = 0):
+    """Plays `steps` random steps (auto-resetting) from a reset with `seed`, its clock
     moved on to `start_loop` (to reach the end of a long map sooner).
 
-    Returns:
-      (first timestep, list of timesteps, list of actions), all as numpy.
+    Yields:
+      The reset's (state, timestep), then each step's (action, state, timestep).
     """
     reset, step = compiled(sim)
     act = random_actor(sim.fmt.types)
     key = jax.random.PRNGKey(seed)
     state, ts = reset(key, PARAMS)
     state = state.replace(game_loop=np.int32(start_loop))
-    first = jax.device_get(ts)
-    timesteps, actions = [], []
+    yield state, ts
     for _ in range(steps):
         key, k = jax.random.split(key)
         action = act(k, ts.observation["available_actions"])
         state, ts = step(state, action, PARAMS)
+        yield action, state, ts
+
+
+def random_episode(sim: Simulator, seed: int, steps: int, start_loop: int = 0):
+    """`random_play`'s timesteps and actions.
+
+    Returns:
+      (first timestep, list of timesteps, list of actions), all as numpy.
+    """
+    play = random_play(sim, seed, steps, start_loop)
+    _, first = next(play)
+    timesteps, actions = [], []
+    for action, _, ts in play:
         timesteps.append(jax.device_get(ts))
         actions.append(jax.device_get(action))
-    return first, timesteps, actions
+    return jax.device_get(first), timesteps, actions
 
 
 @pytest.fixture

@@ -10,7 +10,7 @@ from sc2jax.environment.render import ratio_255
 from sc2jax.environment.state import Owner
 from sc2jax.environment.units import UNIT_DATA
 
-from .conftest import PARAMS, compiled, random_actor, small_sim
+from .conftest import random_play, small_sim
 
 _RELATIVE = {Owner.SELF: 1, Owner.ENEMY: 4, Owner.NEUTRAL: 3}
 
@@ -81,14 +81,10 @@ def reference_screen(sim, state) -> dict:
 def _random_states(sim, seed: int, steps: int):
     """States of a random episode, each also with three slots moved to overlap at the
     camera's centre (slot 1 over slot 0, the last slot under them)."""
-    reset, step = compiled(sim)
-    act = random_actor(sim.fmt.types)
-    key = jax.random.PRNGKey(seed)
-    state, ts = reset(key, PARAMS)
+    play = random_play(sim, seed, steps)
+    next(play)  # The reset.
     out = []
-    for _ in range(steps):
-        key, k = jax.random.split(key)
-        state, ts = step(state, act(k, ts.observation["available_actions"]), PARAMS)
+    for _, state, _ in play:
         centre = np.asarray(state.camera)
         pos = np.array(state.units.pos)
         pos[[0, 1, -1]] = centre + np.array([[0.2, -0.2], [0.3, -0.1], [0.1, -0.3]])
