@@ -52,20 +52,24 @@ PAPER_ROW = {"atari": "atari_net", "fullyconv": "fullyconv",
 PAPER_COLUMNS = ("random_policy", "deepmind_human", "grandmaster")
 
 
-def parse_maps(value: str) -> tuple[str, ...]:
-    """The maps of a --maps value: 'all' (the seven), or comma-separated names.
+def check_maps(names: Sequence[str], what: str = "maps") -> tuple[str, ...]:
+    """`names` as a tuple, if they are distinct names from `paper.MAPS` (at least one).
 
     Raises:
-      ValueError: for an unknown or repeated name, or an empty list.
+      ValueError: naming `what` and the unknown names, if any.
     """
-    names = parse_names(value)
-    if names is None:
-        return MAPS
+    names = tuple(names)
     unknown = [m for m in names if m not in MAPS]
     if unknown or not names or len(set(names)) != len(names):
-        raise ValueError(f"--maps={value!r} must be 'all' or distinct names from {list(MAPS)}"
-                         + (f"; unknown: {unknown}" if unknown else ""))
+        raise ValueError(f"{what} must be distinct names from {list(MAPS)}, got "
+                         f"{list(names)}" + (f"; unknown: {unknown}" if unknown else ""))
     return names
+
+
+def parse_maps(value: str) -> tuple[str, ...]:
+    """The maps of a --maps value: 'all' (the seven), or comma-separated names."""
+    names = parse_names(value)
+    return MAPS if names is None else check_maps(names, f"--maps={value!r}")
 
 
 def random_policy(config: TrainConfig, episodes: int, path: str) -> dict:
@@ -109,9 +113,7 @@ def build_table1(config: TrainConfig, maps: Sequence[str], learning_rates, run_d
     """
     if random_episodes < 0:
         raise ValueError(f"random_episodes must be >= 0, got {random_episodes!r}")
-    unknown = [m for m in maps if m not in MAPS]
-    if unknown or not maps:
-        raise ValueError(f"maps must be names from {list(MAPS)}, got {list(maps)!r}")
+    maps = check_maps(maps)
     rates = np.asarray(learning_rates, np.float32)
     finished = {}
     for name in maps:  # Every map's directory is checked before anything runs.
@@ -137,12 +139,12 @@ def build_table1(config: TrainConfig, maps: Sequence[str], learning_rates, run_d
                 f"run)")
         else:
             summary = run_sweep(map_config, rates, sweep_dir, log=log)
-        random = None
+        random_row = None
         if random_episodes:
             log(f"{name}: the random policy, {random_episodes} episodes")
-            random = random_policy(map_config, random_episodes,
-                                   os.path.join(sweep_dir, "random_policy.json"))
-        entries[name] = {"sweep": summary, "random_policy": random}
+            random_row = random_policy(map_config, random_episodes,
+                                       os.path.join(sweep_dir, "random_policy.json"))
+        entries[name] = {"sweep": summary, "random_policy": random_row}
     table = {"agent": config.agent, "learning_rates": rates.tolist(), "maps": entries}
     write_json_atomic(os.path.join(run_dir, "table1.json"), table)
     with atomic_write(os.path.join(run_dir, "table1.md")) as f:
@@ -175,10 +177,10 @@ def table1_markdown(table: dict) -> str:
               + [f"paper {ROW_TITLES[row]} mean (max)" for row in PAPER_COLUMNS[1:]])
     lines = ["| " + " | ".join(header) + " |", "|" + "---|" * len(header)]
     for name, entry in table["maps"].items():
-        sweep, random = entry["sweep"], entry["random_policy"]
+        sweep, random_row = entry["sweep"], entry["random_policy"]
         paper = [_paper(row, name) for row in PAPER_COLUMNS]
-        random_cell = (f"{_number(random['mean'], '.2f')} ({_number(random['max'], 'g')})"
-                       if random else "–")
+        random_cell = (f"{_number(random_row['mean'], '.2f')} "
+                       f"({_number(random_row['max'], 'g')})" if random_row else "–")
         lines.append("| " + " | ".join(
             [name, random_cell, _number(sweep["mean_over_runs"], ".2f"),
              _number(sweep["best_mean"], ".2f"), _number(sweep["max"], "g"),

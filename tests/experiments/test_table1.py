@@ -32,6 +32,8 @@ def test_parse_maps():
         table1.parse_maps("MoveToBeacon,Nope")
     with pytest.raises(ValueError, match="distinct"):
         table1.parse_maps("MoveToBeacon,MoveToBeacon")
+    with pytest.raises(ValueError, match=r"maps must be distinct.*unknown: \['Nope'\]"):
+        table1.build_table1(CONFIG, ("Nope",), RATES, "unused", 0)
 
 
 def _summary(steps: int, scores=(1.5, 3.0)) -> dict:
