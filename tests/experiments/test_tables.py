@@ -1,8 +1,8 @@
-"""Table 1 for sc2jax: the maps flag, the markdown, and a table that resumes.
+"""Table 1 for sc2jax (`tables`): the maps flag, the markdown, and a table that resumes.
 
 The sweeps themselves are tested in test_training.py; here `run_sweep` is replaced by a
 stand-in that writes what a finished sweep writes, so that these tests check what
-`table1` adds: one sweep directory per map, nothing finished done again, and the table.
+`tables` adds: one sweep directory per map, nothing finished done again, and the table.
 """
 
 from __future__ import annotations
@@ -14,7 +14,7 @@ import os
 import numpy as np
 import pytest
 
-from sc2jax.experiments import table1
+from sc2jax.experiments import tables
 from sc2jax.experiments.checkpoints import write_json_atomic
 from sc2jax.experiments.config import TrainConfig
 from sc2jax.experiments.paper import MAPS
@@ -25,15 +25,15 @@ RATES = np.array([1e-4, 1e-3], np.float32)
 
 
 def test_parse_maps():
-    assert table1.parse_maps("all") == MAPS
-    assert table1.parse_maps("DefeatRoaches, MoveToBeacon") == ("DefeatRoaches",
+    assert tables.parse_maps("all") == MAPS
+    assert tables.parse_maps("DefeatRoaches, MoveToBeacon") == ("DefeatRoaches",
                                                                 "MoveToBeacon")
     with pytest.raises(ValueError, match=r"unknown: \['Nope'\]"):
-        table1.parse_maps("MoveToBeacon,Nope")
+        tables.parse_maps("MoveToBeacon,Nope")
     with pytest.raises(ValueError, match="distinct"):
-        table1.parse_maps("MoveToBeacon,MoveToBeacon")
+        tables.parse_maps("MoveToBeacon,MoveToBeacon")
     with pytest.raises(ValueError, match=r"maps must be distinct.*unknown: \['Nope'\]"):
-        table1.build_table1(CONFIG, ("Nope",), RATES, "unused", 0)
+        tables.build_table1(CONFIG, ("Nope",), RATES, "unused", 0)
 
 
 def _summary(steps: int, scores=(1.5, 3.0)) -> dict:
@@ -53,7 +53,7 @@ def test_markdown_puts_the_papers_rows_beside_ours():
             "episodes": 4, "mean": 0.5, "std": 0.5, "max": 1.0}},
         "DefeatRoaches": {"sweep": _summary(64, (math.nan, math.nan)),
                           "random_policy": None}}}
-    lines = table1.table1_markdown(table).splitlines()
+    lines = tables.table1_markdown(table).splitlines()
     assert "1.00e-04–1.00e-03" in lines[0] and "2 runs per map" in lines[0]
     header, beacon, roaches = lines[2], lines[4], lines[5]
     assert "paper FullyConv best mean (max)" in header
@@ -64,7 +64,7 @@ def test_markdown_puts_the_papers_rows_beside_ours():
     assert roaches.split(" | ")[1:4] == ["–", "–", "–"]
     # arFullyConv has no row in the paper's table: one paper column fewer.
     assert header.count("| paper ") == 4
-    other = table1.table1_markdown({**table, "agent": "arfullyconv"}).splitlines()
+    other = tables.table1_markdown({**table, "agent": "arfullyconv"}).splitlines()
     assert other[2].count("| paper ") == 3 and len(other[4].split(" | ")) == 9
 
 
@@ -81,13 +81,13 @@ def fake_sweeps(monkeypatch):
         write_json_atomic(os.path.join(sweep_dir, "sweep.json"), summary)
         return summary
 
-    monkeypatch.setattr(table1, "run_sweep", run_sweep)
+    monkeypatch.setattr(tables, "run_sweep", run_sweep)
     return calls
 
 
 def test_table_runs_each_map_once_and_resumes(tmp_path, fake_sweeps, monkeypatch):
     maps = ("MoveToBeacon", "CollectMineralShards")
-    table = table1.build_table1(CONFIG, maps, RATES, str(tmp_path), 2, log=lambda _: None)
+    table = tables.build_table1(CONFIG, maps, RATES, str(tmp_path), 2, log=lambda _: None)
     assert fake_sweeps == [("MoveToBeacon", 32), ("CollectMineralShards", 32)]
     for name in maps:
         random = table["maps"][name]["random_policy"]
@@ -95,31 +95,31 @@ def test_table_runs_each_map_once_and_resumes(tmp_path, fake_sweeps, monkeypatch
         assert os.path.exists(tmp_path / name / "random_policy.json")
     with open(tmp_path / "table1.json") as f:
         assert json.load(f)["maps"].keys() == set(maps)
-    assert (tmp_path / "table1.md").read_text() == table1.table1_markdown(table)
+    assert (tmp_path / "table1.md").read_text() == tables.table1_markdown(table)
 
     # Again: nothing is trained or measured again.
     def measured(*_):
         raise AssertionError("the random policy was measured again")
-    monkeypatch.setattr(table1.evaluation, "run_episodes", measured)
-    again = table1.build_table1(CONFIG, maps, RATES, str(tmp_path), 2, log=lambda _: None)
+    monkeypatch.setattr(tables.evaluation, "run_episodes", measured)
+    again = tables.build_table1(CONFIG, maps, RATES, str(tmp_path), 2, log=lambda _: None)
     assert len(fake_sweeps) == 2 and again == table
 
     # More steps: the sweeps train on (run_sweep resumes them), the random policy stays.
     more = TrainConfig(**{**CONFIG.to_json(), "total_steps": 64})
-    table1.build_table1(more, maps[:1], RATES, str(tmp_path), 2, log=lambda _: None)
+    tables.build_table1(more, maps[:1], RATES, str(tmp_path), 2, log=lambda _: None)
     assert fake_sweeps[2:] == [("MoveToBeacon", 64)]
 
 
 def test_table_refuses_another_sweep_before_running_anything(tmp_path, fake_sweeps):
-    table1.build_table1(CONFIG, ("CollectMineralShards",), RATES, str(tmp_path), 0,
+    tables.build_table1(CONFIG, ("CollectMineralShards",), RATES, str(tmp_path), 0,
                         log=lambda _: None)
     with pytest.raises(ValueError, match="holds a sweep of the learning rates"):
-        table1.build_table1(CONFIG, ("MoveToBeacon", "CollectMineralShards"), RATES * 2,
+        tables.build_table1(CONFIG, ("MoveToBeacon", "CollectMineralShards"), RATES * 2,
                             str(tmp_path), 0, log=lambda _: None)
     other = TrainConfig(**{**CONFIG.to_json(), "agent": "atari"})
     with pytest.raises(ValueError, match="another config"):
-        table1.build_table1(other, ("MoveToBeacon", "CollectMineralShards"), RATES,
+        tables.build_table1(other, ("MoveToBeacon", "CollectMineralShards"), RATES,
                             str(tmp_path), 0, log=lambda _: None)
     assert fake_sweeps == [("CollectMineralShards", 32)]  # MoveToBeacon never started.
     with pytest.raises(ValueError, match="random_episodes must be >= 0"):
-        table1.build_table1(CONFIG, ("MoveToBeacon",), RATES, str(tmp_path), -1)
+        tables.build_table1(CONFIG, ("MoveToBeacon",), RATES, str(tmp_path), -1)
