@@ -50,6 +50,8 @@ _OUTPUT = flags.DEFINE_string("output", None, "Write the results as JSON to this
 _RUN_DIR = flags.DEFINE_string("run_dir", None, "Evaluate the network trained in this run "
                                "directory (its map and format; --agent is ignored).")
 _STEP = flags.DEFINE_integer("checkpoint_step", None, "The run's checkpoint (default: last).")
+_BEST = flags.DEFINE_bool("best", False, "Evaluate the run's best parameters (those of its "
+                          "best recent training score, RUN_DIR/best) instead.")
 _TEMPERATURE = flags.DEFINE_float("temperature", 1.0, "Softmax temperature of a trained "
                                   "network's actions.")
 
@@ -65,6 +67,9 @@ def check_flags() -> None:
     for flag in (_EPISODES, _NUM_ENVS, _STEP_MUL):
         if flag.value < 1:
             raise ValueError(f"--{flag.name} must be >= 1, got {flag.value}")
+    if _BEST.value and (not _RUN_DIR.value or _STEP.value is not None):
+        raise ValueError("--best evaluates a run's best parameters: it needs --run_dir and "
+                         "takes no --checkpoint_step")
     if not _TEMPERATURE.value > 0:
         raise ValueError(f"--temperature must be > 0, got {_TEMPERATURE.value}")
 
@@ -79,7 +84,7 @@ def main(argv) -> None:
     on_game = _BACKEND.value == "sc2"
     if _RUN_DIR.value:
         try:
-            trained, params, meta = trainer.load_run(_RUN_DIR.value, _STEP.value)
+            trained, params, meta = trainer.load_run(_RUN_DIR.value, _STEP.value, _BEST.value)
         except (FileNotFoundError, ValueError) as error:
             sys.exit(f"error: {error}")
         config, agent_name = trained.config, trained.config.agent
@@ -149,7 +154,7 @@ def main(argv) -> None:
     if _OUTPUT.value:
         config = {flag.name: flag.value for flag in (
             _MAP, _BACKEND, _AGENT, _EPISODES, _NUM_ENVS, _SCREEN, _MINIMAP, _STEP_MUL,
-            _SEED, _RUN_DIR, _STEP, _TEMPERATURE)}
+            _SEED, _RUN_DIR, _STEP, _BEST, _TEMPERATURE)}
         write_json_atomic(_OUTPUT.value, {**s, "scores": stats.scores.tolist(),
                                           "steps": stats.steps.tolist(), "config": config})
         print(f"Wrote {_OUTPUT.value}")

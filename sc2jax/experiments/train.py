@@ -127,6 +127,11 @@ def main(argv) -> None:
         s = result.evaluation
         print(f"{config.map_name}, trained {config.agent}: mean {s['mean']:.2f} ± "
               f"{s['std']:.2f} (std), max {s['max']:g}, over {s['episodes']} episodes")
+        if result.best_evaluation:
+            b = result.best_evaluation
+            print(f"  its best parameters (at {b['env_steps']} agent steps, recent training "
+                  f"score {b['score']:.2f}): mean {b['mean']:.2f} ± {b['std']:.2f} (std), "
+                  f"max {b['max']:g}")
         if config.map_name in MAPS:
             print("The paper's Table 1:")
             print(paper_rows(config.map_name))

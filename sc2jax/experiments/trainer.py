@@ -14,7 +14,10 @@ A run directory holds:
   tensorboard/         the same scalars as TensorBoard event files
   episodes.csv         every finished training episode: step and score
   learning_curve.png   the mean episode score against agent steps
+  best/                the parameters at the best mean score of `SCORE_WINDOW` recent
+                       training episodes (Orbax; saved with the checkpoints)
   eval.json            the final evaluation (mean, std, max, every score)
+  eval_best.json       the same for the best parameters, where they are not the final
 
 Running `train` again on a directory with a checkpoint resumes from it: the learner,
 the optimiser, the environments and every PRNG key continue where the checkpoint left
@@ -55,7 +58,8 @@ from sc2jax.losses.learner_loss import make_actor_critic_loss
 from sc2jax.networks.factory import make_network
 
 SCORE_WINDOW = 100
-"""Episodes averaged for the reported recent score."""
+"""Episodes averaged for the reported recent score (and for choosing the best
+parameters, over full windows only)."""
 
 
 @dataclasses.dataclass(frozen=True)
@@ -142,6 +146,9 @@ class TrainResult:
       episode_steps, episode_scores: every training episode's end step and score.
       evaluation: the final evaluation's summary (None without one).
       seconds: wall-clock seconds of this call (compilation included).
+      best_evaluation: the evaluation's summary for the best parameters (run_dir/best),
+        with their `update`, `env_steps` and recent `score`; None without an
+        evaluation, without a full window of episodes, or where they are the final.
     """
 
     state: Any
@@ -149,6 +156,7 @@ class TrainResult:
     episode_scores: np.ndarray
     evaluation: dict | None
     seconds: float
+    best_evaluation: dict | None = None
 
 
 def _episode_rows(episodes, first_step: int, steps_per_update: int, k: int):
@@ -254,6 +262,12 @@ def train(config: TrainConfig, run_dir: str, *, log: Callable[[str], None] = pri
         state, meta = checkpointer.restore(state)
         update, env_steps = meta["update"], meta["env_steps"]
         log(f"Resumed from update {update} ({env_steps} agent steps)")
+    # The best parameters so far, (metadata, params), and whether they await a save.
+    best_checkpointer = Checkpointer(os.path.join(run_dir, "best"), max_to_keep=1)
+    best, best_unsaved = None, False
+    if best_checkpointer.latest_step() is not None:
+        params, meta = best_checkpointer.restore(_params(state))
+        best = (meta, params)
     resume = env_steps if update else None
     metrics_log = CsvLog(os.path.join(run_dir, "metrics.csv"), resume_step=resume)
     episode_log = CsvLog(os.path.join(run_dir, "episodes.csv"), ("step", "score"),
@@ -287,6 +301,11 @@ def train(config: TrainConfig, run_dir: str, *, log: Callable[[str], None] = pri
             for step, score in zip(steps, scores):
                 episode_log.write({"step": int(step), "score": float(score)})
             recent = (recent + scores.tolist())[-SCORE_WINDOW:]
+            if len(recent) == SCORE_WINDOW and (best is None
+                                                 or np.mean(recent) > best[0]["score"]):
+                best = ({"update": update, "env_steps": env_steps,
+                         "score": float(np.mean(recent))}, jax.device_get(_params(state)))
+                best_unsaved = True
             row = {"step": env_steps, "update": update, "wall_time": time.time() - start,
                    "steps_per_s": config.updates_per_chunk * config.steps_per_update
                    / (time.time() - chunk_start),
@@ -303,16 +322,19 @@ def train(config: TrainConfig, run_dir: str, *, log: Callable[[str], None] = pri
                     or update >= stop_at):
                 writer.flush()
                 checkpointer.save(update, state, {"update": update, "env_steps": env_steps})
+                if best_unsaved:
+                    best_checkpointer.save(best[0]["update"], best[1], best[0])
+                    best_unsaved = False
                 last_save = time.time()
         if loop is not None:
             loop.close()  # The evaluation steps the games next.
             loop = None
         episode_table = read_csv(episode_log.path)
         _plot(run_dir, config)
-        summary = None
-        if config.eval_episodes and update >= config.total_updates:
-            log(f"Evaluating for {config.eval_episodes} episodes")
-            params = _params(state)
+        summary = best_summary = None
+
+        def evaluate(params, name: str, extra: dict) -> dict:
+            """Evaluates `params`; writes the summary, scores and `extra` to `name`."""
             if env is None:
                 stats = evaluate_params(agent, params, config.eval_episodes,
                                         seed=config.seed + 1)
@@ -321,10 +343,18 @@ def train(config: TrainConfig, run_dir: str, *, log: Callable[[str], None] = pri
                     env, evaluation.host_core(agent.core, params),
                     agent.core.initial_carry(config.num_envs), config.eval_episodes,
                     seed=config.seed + 1)
-            summary = stats.summary
-            write_json_atomic(os.path.join(run_dir, "eval.json"),
-                              {**summary, "scores": stats.scores.tolist(),
-                               "agent_steps": env_steps, "config": config.to_json()})
+            write_json_atomic(os.path.join(run_dir, name),
+                              {**stats.summary, "scores": stats.scores.tolist(), **extra,
+                               "config": config.to_json()})
+            return stats.summary
+
+        if config.eval_episodes and update >= config.total_updates:
+            log(f"Evaluating for {config.eval_episodes} episodes")
+            summary = evaluate(_params(state), "eval.json", {"agent_steps": env_steps})
+            if best is not None and best[0]["update"] != update:
+                log(f"Evaluating the best parameters (update {best[0]['update']}, recent "
+                    f"score {best[0]['score']:.2f}) for {config.eval_episodes} episodes")
+                best_summary = {**evaluate(best[1], "eval_best.json", best[0]), **best[0]}
     finally:
         if loop is not None:
             loop.close()
@@ -336,8 +366,9 @@ def train(config: TrainConfig, run_dir: str, *, log: Callable[[str], None] = pri
         metrics_log.close()
         episode_log.close()
         checkpointer.close()
+        best_checkpointer.close()
     return TrainResult(state, episode_table["step"], episode_table["score"], summary,
-                       time.time() - start)
+                       time.time() - start, best_summary)
 
 
 def _params(state) -> Any:
@@ -368,12 +399,18 @@ def evaluate_params(agent: Agent, params: Any, episodes: int, *, num_envs: int =
     return evaluation.run_core_episodes(agent.sim, core, params, episodes, num_envs, seed)
 
 
-def load_run(run_dir: str, step: int | None = None) -> tuple[Agent, Any, dict]:
-    """The agent, trained parameters and checkpoint metadata of a run directory.
+def load_run(run_dir: str, step: int | None = None,
+             best: bool = False) -> tuple[Agent, Any, dict]:
+    """The agent, trained parameters and checkpoint metadata of a run directory: of
+    checkpoint `step` (default: the last), or with `best` of the best parameters
+    (run_dir/best; their metadata has `update`, `env_steps` and the recent `score`).
 
     Raises:
-      FileNotFoundError: if `run_dir` has no config.json or no checkpoint.
+      FileNotFoundError: if `run_dir` has no config.json or no such checkpoint.
+      ValueError: for both `step` and `best`.
     """
+    if best and step is not None:
+        raise ValueError(f"give a checkpoint step or best, not both (step={step!r})")
     path = os.path.join(run_dir, "config.json")
     if not os.path.exists(path):
         raise FileNotFoundError(f"{run_dir} is not a run directory (no config.json)")
@@ -381,6 +418,16 @@ def load_run(run_dir: str, step: int | None = None) -> tuple[Agent, Any, dict]:
         config = TrainConfig.from_json(json.load(f))
     agent = build(config)
     target = jax.eval_shape(lambda: agent.initial(jax.random.PRNGKey(0)))
+    if best:
+        missing = FileNotFoundError(f"{run_dir} has no best parameters (saved once "
+                                    f"{SCORE_WINDOW} training episodes have ended)")
+        if not os.path.isdir(os.path.join(run_dir, "best")):
+            raise missing
+        with Checkpointer(os.path.join(run_dir, "best"), max_to_keep=1) as checkpointer:
+            if checkpointer.latest_step() is None:
+                raise missing
+            params, meta = checkpointer.restore(_params(target))
+        return agent, params, meta
     with Checkpointer(os.path.join(run_dir, "checkpoints")) as checkpointer:
         state, meta = checkpointer.restore(target, step)
     return agent, _params(state), meta

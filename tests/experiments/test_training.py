@@ -99,6 +99,42 @@ def test_trained_run_can_be_evaluated(tmp_path):
         trainer.load_run(str(tmp_path / "missing"))
 
 
+def test_training_keeps_and_evaluates_its_best_parameters(tmp_path, monkeypatch):
+    # Short episodes (30 agent steps at step_mul 64) and a window of one episode, so the
+    # best recent score changes within a tiny run. It is interrupted after its best
+    # (update 24 of 32), which must survive the restart.
+    monkeypatch.setattr(trainer, "SCORE_WINDOW", 1)
+    config = TrainConfig(**{**TINY.to_json(), "step_mul": 64, "total_steps": 256,
+                            "eval_episodes": 2})
+    run = str(tmp_path / "run")
+    trainer.train(config, run, log=lambda _: None, progress=False, stop_after_updates=26)
+    result = trainer.train(config, run, log=lambda _: None, progress=False)
+    metrics = read_csv(os.path.join(run, "metrics.csv"))
+    assert np.isfinite(metrics["score"]).sum() >= 4  # Episodes ended in several chunks.
+    best = np.nanmax(metrics["score"])
+    first = int(metrics["update"][np.flatnonzero(metrics["score"] == best)[0]])
+    _, params, meta = trainer.load_run(run, best=True)
+    assert meta == {"update": first, "env_steps": first * config.steps_per_update,
+                    "score": best}
+    assert jax.tree.structure(params) == jax.tree.structure(result.state.learner.params)
+    if first == config.total_updates:  # The best are the final parameters.
+        assert result.best_evaluation is None
+    else:
+        assert result.best_evaluation["episodes"] == 2
+        assert result.best_evaluation["update"] == first
+        with open(os.path.join(run, "eval_best.json")) as f:
+            assert json.load(f)["score"] == best
+    with pytest.raises(ValueError, match="not both"):
+        trainer.load_run(run, step=2, best=True)
+
+
+def test_a_run_without_a_full_window_has_no_best_parameters(tmp_path):
+    run = str(tmp_path / "run")
+    trainer.train(TINY, run, log=lambda _: None, progress=False)
+    with pytest.raises(FileNotFoundError, match="has no best parameters"):
+        trainer.load_run(run, best=True)
+
+
 def test_sampled_learning_rates_are_log_uniform_in_range():
     rates = sampling.sample_learning_rates(jax.random.PRNGKey(0), 2000, 1e-5, 1e-3)
     assert rates.shape == (2000,) and rates.min() >= 1e-5 and rates.max() <= 1e-3
