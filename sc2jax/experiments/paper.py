@@ -25,6 +25,10 @@ TABLE1: dict[str, dict[str, tuple[float, float]]] = {
     for row, (means, maxes) in _ROWS.items()
 }
 
+NETWORK_ROW = {"atari": "atari_net", "fullyconv": "fullyconv",
+               "fullyconv_lstm": "fullyconv_lstm"}
+"""The Table 1 row of each sc2jax network that the paper trained (arFullyConv has none)."""
+
 ROW_TITLES = {
     "random_policy": "Random policy", "random_search": "Random search",
     "deepmind_human": "DeepMind human player", "grandmaster": "StarCraft GrandMaster",

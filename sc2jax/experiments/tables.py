@@ -22,13 +22,9 @@ from sc2jax.experiments import evaluation
 from sc2jax.experiments.atomic import atomic_write
 from sc2jax.experiments.checkpoints import write_json_atomic
 from sc2jax.experiments.config import TrainConfig, parse_names
-from sc2jax.experiments.paper import MAPS, ROW_TITLES, TABLE1
+from sc2jax.experiments.paper import MAPS, NETWORK_ROW, ROW_TITLES, TABLE1
 from sc2jax.experiments.sweeping import run_sweep
 from sc2jax.experiments.trainer import check_run_dir
-
-PAPER_ROW = {"atari": "atari_net", "fullyconv": "fullyconv",
-             "fullyconv_lstm": "fullyconv_lstm"}
-"""The paper's Table 1 row of each network that has one (arFullyConv has none)."""
 
 PAPER_COLUMNS = ("random_policy", "deepmind_human", "grandmaster")
 
@@ -109,12 +105,12 @@ def build_table1(config: TrainConfig, maps: Sequence[str], learning_rates, run_d
                 raise ValueError(f"{sweep_dir} holds a sweep of the learning rates "
                                  f"{saved.tolist()}, not {rates.tolist()}. Use a new "
                                  f"directory.")
+    needed = config.total_updates * config.steps_per_update
     entries = {}
     for name in maps:
         map_config = dataclasses.replace(config, map_name=name)
         sweep_dir = os.path.join(run_dir, name)
         summary = finished.get(name)
-        needed = config.total_updates * config.steps_per_update
         if summary is not None and summary["agent_steps_per_run"] >= needed:
             log(f"{name}: the sweep is done ({summary['agent_steps_per_run']} agent steps per "
                 f"run)")
@@ -150,7 +146,7 @@ def table1_markdown(table: dict) -> str:
       table: what `build_table1` returns.
     """
     agent = table["agent"]
-    paper_agent = PAPER_ROW.get(agent)
+    paper_agent = NETWORK_ROW.get(agent)
     header = (["Map", "sc2jax random policy mean (max)", f"sc2jax {agent}: mean over runs",
                "best mean", "max", "agent steps per run"]
               + [f"paper {ROW_TITLES[row]} mean (max)" for row in PAPER_COLUMNS[:1]]

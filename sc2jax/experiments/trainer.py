@@ -377,13 +377,12 @@ def _params(state) -> Any:
 
 
 def _plot(run_dir: str, config: TrainConfig) -> None:
-    from sc2jax.experiments.paper import TABLE1
+    from sc2jax.experiments.paper import NETWORK_ROW, TABLE1
 
     table = read_csv(os.path.join(run_dir, "metrics.csv"))
     if table["step"].size == 0:
         return
-    row = {"atari": "atari_net", "fullyconv": "fullyconv",
-           "fullyconv_lstm": "fullyconv_lstm"}.get(config.agent)
+    row = NETWORK_ROW.get(config.agent)
     references = {} if row is None else {f"paper {row} best mean":
                                          TABLE1[row][config.map_name][0]}
     plot_learning_curves({"run": (table["step"], table["score"])},
