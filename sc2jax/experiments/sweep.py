@@ -28,12 +28,17 @@ _LR_MAX = flags.DEFINE_float("lr_max", 1e-3, "Largest sampled learning rate.")
 _SWEEP_SEED = flags.DEFINE_integer("sweep_seed", 0, "Seed of the sampled learning rates.")
 
 
+def learning_rates_from_flags():
+    """float32[--num_runs] rates sampled by the flags (ValueError for a bad value)."""
+    return sample_learning_rates(jax.random.PRNGKey(_SWEEP_SEED.value), _NUM_RUNS.value,
+                                 _LR_MIN.value, _LR_MAX.value)
+
+
 def main(argv) -> None:
     del argv
     try:
         config = train_flags.config_from_flags()
-        rates = sample_learning_rates(jax.random.PRNGKey(_SWEEP_SEED.value), _NUM_RUNS.value,
-                                      _LR_MIN.value, _LR_MAX.value)
+        rates = learning_rates_from_flags()
     except ValueError as error:
         sys.exit(f"error: {error}")
     sweep_dir = train_flags.run_dir_or_temporary(config)

@@ -18,12 +18,10 @@ import dataclasses
 import os
 import sys
 
-import jax
 from absl import app, flags
 
-from sc2jax.experiments import sweep as sweep_flags  # noqa: F401  (defines its flags)
+from sc2jax.experiments import sweep as sweep_flags
 from sc2jax.experiments import train as train_flags
-from sc2jax.experiments.sweeping import sample_learning_rates
 from sc2jax.experiments.tables import build_table1, parse_maps, table1_markdown
 
 _MAPS = flags.DEFINE_string("maps", "all", "Comma-separated mini-games, or 'all' (the "
@@ -41,8 +39,7 @@ def main(argv) -> None:
     try:
         maps = parse_maps(_MAPS.value)
         config = dataclasses.replace(train_flags.config_from_flags(), map_name=maps[0])
-        rates = sample_learning_rates(jax.random.PRNGKey(FLAGS.sweep_seed), FLAGS.num_runs,
-                                      FLAGS.lr_min, FLAGS.lr_max)
+        rates = sweep_flags.learning_rates_from_flags()
         if _RANDOM_EPISODES.value < 0:
             raise ValueError(f"--random_episodes must be >= 0, got {_RANDOM_EPISODES.value}")
     except ValueError as error:
