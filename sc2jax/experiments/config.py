@@ -59,6 +59,12 @@ class TrainConfig:
       updates_per_chunk: updates between two host calls (logging).
       checkpoint_interval_s: seconds between checkpoints (one is always written at the end).
       eval_episodes: episodes of the final evaluation (0: none).
+      best_eval_interval: how `train` chooses the best parameters it keeps. 0: by the
+        mean of the last `SCORE_WINDOW` training episodes (free, but it lags the
+        policy). N > 0: every N updates (at the first chunk end past each multiple)
+        it evaluates the current parameters for `best_eval_episodes` fresh episodes,
+        always with the same seed, and keeps the best of those (simulator only).
+      best_eval_episodes: episodes of each of those evaluations.
     """
 
     map_name: str = "MoveToBeacon"
@@ -87,6 +93,8 @@ class TrainConfig:
     updates_per_chunk: int = 10
     checkpoint_interval_s: float = 300.0
     eval_episodes: int = 100
+    best_eval_interval: int = 0
+    best_eval_episodes: int = 20
 
     def __post_init__(self):
         if self.backend not in BACKENDS:
@@ -126,8 +134,13 @@ class TrainConfig:
             raise ValueError(f"discount must be in [0, 1], got {self.discount!r}")
         if not 0.0 <= self.rmsprop_decay < 1.0:
             raise ValueError(f"rmsprop_decay must be in [0, 1), got {self.rmsprop_decay!r}")
-        for name in ("warmup_updates", "eval_episodes"):
+        for name in ("warmup_updates", "eval_episodes", "best_eval_interval"):
             check_non_negative_int(name, getattr(self, name))
+        check_positive_int("best_eval_episodes", self.best_eval_episodes)
+        if self.best_eval_interval and self.backend != "simulator":
+            raise ValueError(f"best_eval_interval={self.best_eval_interval!r} needs backend "
+                             f"'simulator' (on {self.backend!r} the evaluation would take "
+                             f"the training games); use 0 there")
         self.observation_format()  # checks the resolutions and layer names
         function_mask(self.functions)  # checks the action set
 

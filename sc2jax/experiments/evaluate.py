@@ -50,8 +50,9 @@ _OUTPUT = flags.DEFINE_string("output", None, "Write the results as JSON to this
 _RUN_DIR = flags.DEFINE_string("run_dir", None, "Evaluate the network trained in this run "
                                "directory (its map and format; --agent is ignored).")
 _STEP = flags.DEFINE_integer("checkpoint_step", None, "The run's checkpoint (default: last).")
-_BEST = flags.DEFINE_bool("best", False, "Evaluate the run's best parameters (those of its "
-                          "best recent training score, RUN_DIR/best) instead.")
+_BEST = flags.DEFINE_bool("best", False, "Evaluate the run's best parameters (RUN_DIR/best: "
+                          "those of its best recent training score, or of its best "
+                          "periodic evaluation) instead.")
 _TEMPERATURE = flags.DEFINE_float("temperature", 1.0, "Softmax temperature of a trained "
                                   "network's actions.")
 

@@ -79,6 +79,12 @@ _CHECKPOINT = flags.DEFINE_float("checkpoint_interval_s", _DEFAULTS.checkpoint_i
                                  "Seconds between checkpoints.")
 _EVAL = flags.DEFINE_integer("eval_episodes", _DEFAULTS.eval_episodes,
                              "Episodes of the final evaluation (0: none).")
+_BEST_INTERVAL = flags.DEFINE_integer(
+    "best_eval_interval", _DEFAULTS.best_eval_interval, "Choose the best parameters (kept "
+    "in run_dir/best) by evaluating the current ones every this many updates; 0: by the "
+    "mean of the last 100 training episodes.")
+_BEST_EPISODES = flags.DEFINE_integer("best_eval_episodes", _DEFAULTS.best_eval_episodes,
+                                      "Episodes of each of those evaluations.")
 
 
 def config_from_flags() -> TrainConfig:
@@ -98,7 +104,8 @@ def config_from_flags() -> TrainConfig:
         rmsprop_epsilon=_EPSILON.value, max_grad_norm=_CLIP.value,
         off_policy_correction=_CORRECTION.value, seed=_SEED.value,
         updates_per_chunk=_CHUNK.value, checkpoint_interval_s=_CHECKPOINT.value,
-        eval_episodes=_EVAL.value)
+        eval_episodes=_EVAL.value, best_eval_interval=_BEST_INTERVAL.value,
+        best_eval_episodes=_BEST_EPISODES.value)
 
 
 def run_dir_or_temporary(config: TrainConfig) -> str:
@@ -129,9 +136,9 @@ def main(argv) -> None:
               f"{s['std']:.2f} (std), max {s['max']:g}, over {s['episodes']} episodes")
         if result.best_evaluation:
             b = result.best_evaluation
-            print(f"  its best parameters (at {b['env_steps']} agent steps, recent training "
-                  f"score {b['score']:.2f}): mean {b['mean']:.2f} ± {b['std']:.2f} (std), "
-                  f"max {b['max']:g}")
+            print(f"  its best parameters (at {b['env_steps']} agent steps, "
+                  f"{b['chosen_by']} score {b['score']:.2f}): mean {b['mean']:.2f} ± "
+                  f"{b['std']:.2f} (std), max {b['max']:g}")
         if config.map_name in MAPS:
             print("The paper's Table 1:")
             print(paper_rows(config.map_name))

@@ -14,8 +14,10 @@ A run directory holds:
   tensorboard/         the same scalars as TensorBoard event files
   episodes.csv         every finished training episode: step and score
   learning_curve.png   the mean episode score against agent steps
-  best/                the parameters at the best mean score of `SCORE_WINDOW` recent
-                       training episodes (Orbax; saved with the checkpoints)
+  best/                the best parameters so far (Orbax; saved with the checkpoints):
+                       those of the best mean of `SCORE_WINDOW` recent training
+                       episodes, or with `best_eval_interval` of the best periodic
+                       evaluation
   eval.json            the final evaluation (mean, std, max, every score)
   eval_best.json       the same for the best parameters, where they are not the final
 
@@ -147,8 +149,8 @@ class TrainResult:
       evaluation: the final evaluation's summary (None without one).
       seconds: wall-clock seconds of this call (compilation included).
       best_evaluation: the evaluation's summary for the best parameters (run_dir/best),
-        with their `update`, `env_steps` and recent `score`; None without an
-        evaluation, without a full window of episodes, or where they are the final.
+        with their `update`, `env_steps`, `score` and what it is (`chosen_by`); None
+        without an evaluation, without best parameters yet, or where they are the final.
     """
 
     state: Any
@@ -262,12 +264,16 @@ def train(config: TrainConfig, run_dir: str, *, log: Callable[[str], None] = pri
         state, meta = checkpointer.restore(state)
         update, env_steps = meta["update"], meta["env_steps"]
         log(f"Resumed from update {update} ({env_steps} agent steps)")
-    # The best parameters so far, (metadata, params), and whether they await a save.
-    best_checkpointer = Checkpointer(os.path.join(run_dir, "best"), max_to_keep=1)
-    best, best_unsaved = None, False
-    if best_checkpointer.latest_step() is not None:
-        params, meta = best_checkpointer.restore(_params(state))
-        best = (meta, params)
+    # The best parameters so far, (metadata, params), and whether they await a save;
+    # their directory is made at the first save.
+    best_dir = os.path.join(run_dir, "best")
+    best_checkpointer = best = None
+    best_unsaved = False
+    if os.path.isdir(best_dir):
+        best_checkpointer = Checkpointer(best_dir, max_to_keep=1)
+        if best_checkpointer.latest_step() is not None:
+            params, meta = best_checkpointer.restore(_params(state))
+            best = (meta, params)
     resume = env_steps if update else None
     metrics_log = CsvLog(os.path.join(run_dir, "metrics.csv"), resume_step=resume)
     episode_log = CsvLog(os.path.join(run_dir, "episodes.csv"), ("step", "score"),
@@ -301,10 +307,10 @@ def train(config: TrainConfig, run_dir: str, *, log: Callable[[str], None] = pri
             for step, score in zip(steps, scores):
                 episode_log.write({"step": int(step), "score": float(score)})
             recent = (recent + scores.tolist())[-SCORE_WINDOW:]
-            if len(recent) == SCORE_WINDOW and (best is None
-                                                 or np.mean(recent) > best[0]["score"]):
-                best = ({"update": update, "env_steps": env_steps,
-                         "score": float(np.mean(recent))}, jax.device_get(_params(state)))
+            candidate = _best_candidate_score(agent, state, update, recent)
+            if candidate is not None and (best is None or candidate > best[0]["score"]):
+                best = ({"update": update, "env_steps": env_steps, "score": candidate,
+                         "chosen_by": _chosen_by(config)}, jax.device_get(_params(state)))
                 best_unsaved = True
             row = {"step": env_steps, "update": update, "wall_time": time.time() - start,
                    "steps_per_s": config.updates_per_chunk * config.steps_per_update
@@ -313,8 +319,11 @@ def train(config: TrainConfig, run_dir: str, *, log: Callable[[str], None] = pri
                    "score": float(np.mean(recent)) if recent else float("nan"),
                    "score_max": float(np.max(recent)) if recent else float("nan"),
                    **{k: float(np.mean(v)) for k, v in metrics.items()}}
+            if config.best_eval_interval:
+                row["eval_score"] = candidate
             metrics_log.write(row)
-            writer.scalars({k: v for k, v in row.items() if k != "step"}, env_steps)
+            writer.scalars({k: v for k, v in row.items() if k != "step" and v is not None},
+                           env_steps)
             if bar is not None:
                 bar.update(env_steps, {"score": row["score"], "score_max": row["score_max"],
                                        "entropy": row["function_entropy"]})
@@ -323,6 +332,8 @@ def train(config: TrainConfig, run_dir: str, *, log: Callable[[str], None] = pri
                 writer.flush()
                 checkpointer.save(update, state, {"update": update, "env_steps": env_steps})
                 if best_unsaved:
+                    if best_checkpointer is None:
+                        best_checkpointer = Checkpointer(best_dir, max_to_keep=1)
                     best_checkpointer.save(best[0]["update"], best[1], best[0])
                     best_unsaved = False
                 last_save = time.time()
@@ -352,8 +363,9 @@ def train(config: TrainConfig, run_dir: str, *, log: Callable[[str], None] = pri
             log(f"Evaluating for {config.eval_episodes} episodes")
             summary = evaluate(_params(state), "eval.json", {"agent_steps": env_steps})
             if best is not None and best[0]["update"] != update:
-                log(f"Evaluating the best parameters (update {best[0]['update']}, recent "
-                    f"score {best[0]['score']:.2f}) for {config.eval_episodes} episodes")
+                log(f"Evaluating the best parameters (update {best[0]['update']}, "
+                    f"{_chosen_by(config)} score {best[0]['score']:.2f}) for "
+                    f"{config.eval_episodes} episodes")
                 best_summary = {**evaluate(best[1], "eval_best.json", best[0]), **best[0]}
     finally:
         if loop is not None:
@@ -366,9 +378,32 @@ def train(config: TrainConfig, run_dir: str, *, log: Callable[[str], None] = pri
         metrics_log.close()
         episode_log.close()
         checkpointer.close()
-        best_checkpointer.close()
+        if best_checkpointer is not None:
+            best_checkpointer.close()
     return TrainResult(state, episode_table["step"], episode_table["score"], summary,
                        time.time() - start, best_summary)
+
+
+def _chosen_by(config: TrainConfig) -> str:
+    """What a run's best score is: "evaluation" or "training window"."""
+    return "evaluation" if config.best_eval_interval else "training window"
+
+
+def _best_candidate_score(agent: Agent, state: Any, update: int,
+                          recent: list[float]) -> float | None:
+    """The score by which the parameters after `update` compete to be the best, or
+    None when they do not: every `best_eval_interval` updates the mean of a fresh
+    evaluation (the same seed every time, so that the parameters face the same
+    episodes' randomness), or without an interval the mean of the last `SCORE_WINDOW`
+    training episodes `recent`, once the window is full."""
+    config = agent.config
+    interval = config.best_eval_interval
+    if not interval:
+        return float(np.mean(recent)) if len(recent) == SCORE_WINDOW else None
+    if update // interval == (update - config.updates_per_chunk) // interval:
+        return None
+    return evaluate_params(agent, _params(state), config.best_eval_episodes,
+                           seed=config.seed + 2).summary["mean"]
 
 
 def _params(state) -> Any:
@@ -402,7 +437,8 @@ def load_run(run_dir: str, step: int | None = None,
              best: bool = False) -> tuple[Agent, Any, dict]:
     """The agent, trained parameters and checkpoint metadata of a run directory: of
     checkpoint `step` (default: the last), or with `best` of the best parameters
-    (run_dir/best; their metadata has `update`, `env_steps` and the recent `score`).
+    (run_dir/best; their metadata has `update`, `env_steps`, the `score` that chose them
+    and what it is, `chosen_by`).
 
     Raises:
       FileNotFoundError: if `run_dir` has no config.json or no such checkpoint.
@@ -419,7 +455,8 @@ def load_run(run_dir: str, step: int | None = None,
     target = jax.eval_shape(lambda: agent.initial(jax.random.PRNGKey(0)))
     if best:
         missing = FileNotFoundError(f"{run_dir} has no best parameters (saved once "
-                                    f"{SCORE_WINDOW} training episodes have ended)")
+                                    f"{SCORE_WINDOW} training episodes have ended, or "
+                                    f"with best_eval_interval at the first evaluation)")
         if not os.path.isdir(os.path.join(run_dir, "best")):
             raise missing
         with Checkpointer(os.path.join(run_dir, "best"), max_to_keep=1) as checkpointer:

@@ -35,6 +35,9 @@ TINY = TrainConfig(map_name="MoveToBeacon", agent="atari", screen_size=16, minim
     (dict(screen_size=8), "screen_size"),
     (dict(screen_features=("nope",)), "nope"),
     (dict(off_policy_correction="retrace"), "unknown off_policy_correction"),
+    (dict(best_eval_interval=-1), "best_eval_interval must be an int >= 0, got -1"),
+    (dict(best_eval_episodes=0), "best_eval_episodes must be a positive int"),
+    (dict(backend="sc2", best_eval_interval=5), "best_eval_interval=5 needs backend"),
 ])
 def test_config_rejects_bad_values(change, message):
     with pytest.raises(ValueError, match=message):
@@ -115,7 +118,7 @@ def test_training_keeps_and_evaluates_its_best_parameters(tmp_path, monkeypatch)
     first = int(metrics["update"][np.flatnonzero(metrics["score"] == best)[0]])
     _, params, meta = trainer.load_run(run, best=True)
     assert meta == {"update": first, "env_steps": first * config.steps_per_update,
-                    "score": best}
+                    "score": best, "chosen_by": "training window"}
     assert jax.tree.structure(params) == jax.tree.structure(result.state.learner.params)
     if first == config.total_updates:  # The best are the final parameters.
         assert result.best_evaluation is None
@@ -131,8 +134,32 @@ def test_training_keeps_and_evaluates_its_best_parameters(tmp_path, monkeypatch)
 def test_a_run_without_a_full_window_has_no_best_parameters(tmp_path):
     run = str(tmp_path / "run")
     trainer.train(TINY, run, log=lambda _: None, progress=False)
+    assert not os.path.exists(os.path.join(run, "best"))
     with pytest.raises(FileNotFoundError, match="has no best parameters"):
         trainer.load_run(run, best=True)
+
+
+def test_best_parameters_chosen_by_periodic_evaluation(tmp_path):
+    # Every 8 updates (chunks of 2) the current parameters play 2 evaluation episodes,
+    # always with the same seed; the best of those are kept, across an interruption.
+    # (On this map and seed the evaluations differ, and the best is before update 18.)
+    config = TrainConfig(**{**TINY.to_json(), "map_name": "CollectMineralShards",
+                            "step_mul": 64, "total_steps": 256, "best_eval_interval": 8,
+                            "best_eval_episodes": 2})
+    run = str(tmp_path / "run")
+    trainer.train(config, run, log=lambda _: None, progress=False, stop_after_updates=18)
+    trainer.train(config, run, log=lambda _: None, progress=False)
+    metrics = read_csv(os.path.join(run, "metrics.csv"))
+    evaluated = np.isfinite(metrics["eval_score"])
+    np.testing.assert_array_equal(metrics["update"][evaluated], [8, 16, 24, 32])
+    best = np.max(metrics["eval_score"][evaluated])
+    first = int(metrics["update"][np.flatnonzero(metrics["eval_score"] == best)[0]])
+    agent, params, meta = trainer.load_run(run, best=True)
+    assert meta == {"update": first, "env_steps": first * config.steps_per_update,
+                    "score": best, "chosen_by": "evaluation"}
+    assert first < 18 and len(set(metrics["eval_score"][evaluated])) > 1
+    again = trainer.evaluate_params(agent, params, 2, seed=config.seed + 2)
+    assert again.summary["mean"] == best
 
 
 def test_sampled_learning_rates_are_log_uniform_in_range():
