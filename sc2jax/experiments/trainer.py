@@ -389,21 +389,33 @@ def _chosen_by(config: TrainConfig) -> str:
     return "evaluation" if config.best_eval_interval else "training window"
 
 
+def best_eval_due(config: TrainConfig, update: int) -> bool:
+    """Whether the chunk that ended at `update` passed a multiple of
+    `best_eval_interval` (never without one)."""
+    interval = config.best_eval_interval
+    return bool(interval) and update // interval != (update - config.updates_per_chunk
+                                                      ) // interval
+
+
+def best_eval_score(agent: Agent, params: Any, seed: int) -> float:
+    """The mean of a periodic evaluation of a run with seed `seed`: always the same
+    episodes' randomness (seed + 2), so that the parameters face the same draws."""
+    return evaluate_params(agent, params, agent.config.best_eval_episodes,
+                           seed=seed + 2).summary["mean"]
+
+
 def _best_candidate_score(agent: Agent, state: Any, update: int,
                           recent: list[float]) -> float | None:
     """The score by which the parameters after `update` compete to be the best, or
-    None when they do not: every `best_eval_interval` updates the mean of a fresh
-    evaluation (the same seed every time, so that the parameters face the same
-    episodes' randomness), or without an interval the mean of the last `SCORE_WINDOW`
-    training episodes `recent`, once the window is full."""
+    None when they do not: with `best_eval_interval` a periodic evaluation's mean
+    when one is due, without it the mean of the last `SCORE_WINDOW` training episodes
+    `recent` once the window is full."""
     config = agent.config
-    interval = config.best_eval_interval
-    if not interval:
+    if not config.best_eval_interval:
         return float(np.mean(recent)) if len(recent) == SCORE_WINDOW else None
-    if update // interval == (update - config.updates_per_chunk) // interval:
+    if not best_eval_due(config, update):
         return None
-    return evaluate_params(agent, _params(state), config.best_eval_episodes,
-                           seed=config.seed + 2).summary["mean"]
+    return best_eval_score(agent, _params(state), config.seed)
 
 
 def _params(state) -> Any:

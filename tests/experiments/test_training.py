@@ -13,6 +13,7 @@ import pytest
 
 from sc2jax.experiments import evaluation, trainer
 from sc2jax.experiments import sweeping as sampling
+from sc2jax.experiments.checkpoints import Checkpointer
 from sc2jax.experiments.config import TrainConfig, parse_names
 from sc2jax.experiments.learner import annealed_learning_rate
 from sc2jax.experiments.metrics_log import read_csv
@@ -179,6 +180,30 @@ def test_sweep_reports_table1_entries(tmp_path):
     assert summary["mean_over_runs"] == pytest.approx(np.mean(summary["run_scores"]))
     for name in ("sweep.json", "curves.csv", "learning_curves.png", "checkpoints"):
         assert os.path.exists(tmp_path / name), name
+    assert not os.path.exists(tmp_path / "best") and "final_scores" not in summary
+
+
+def test_sweep_keeps_each_runs_best_parameters_by_periodic_evaluation(tmp_path):
+    config = TrainConfig(**{**TINY.to_json(), "map_name": "CollectMineralShards",
+                            "step_mul": 64, "total_steps": 128, "eval_episodes": 2,
+                            "best_eval_interval": 4, "best_eval_episodes": 2})
+    summary = sampling.run_sweep(config, [1e-3, 1e-2], str(tmp_path), log=lambda _: None)
+    assert set(summary["best_updates"]) <= {4, 8, 12, 16}
+    assert len(summary["final_scores"]) == 2
+    agent = trainer.build(config)
+    with Checkpointer(tmp_path / "best", max_to_keep=1) as checkpointer:
+        stacked, meta = checkpointer.restore(
+            jax.eval_shape(lambda: jax.vmap(agent.initial_learner)(
+                jax.random.split(jax.random.PRNGKey(0), 2))).params)
+    assert meta == {"scores": summary["best_eval_scores"],
+                    "updates": summary["best_updates"]}
+    for r in range(2):
+        params = jax.tree.map(lambda x, r=r: x[r], stacked)
+        # The kept parameters are the ones that scored, and the run's score is theirs.
+        assert trainer.best_eval_score(agent, params, config.seed + r) == (
+            summary["best_eval_scores"][r])
+        assert trainer.evaluate_params(agent, params, 2, seed=config.seed + r).summary[
+            "mean"] == summary["run_scores"][r]
 
 
 def test_random_search_keeps_the_best_policy():
