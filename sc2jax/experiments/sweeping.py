@@ -182,6 +182,16 @@ def run_sweep(config: TrainConfig, learning_rates, sweep_dir: str, *,
     return summary
 
 
+def run_score_rule(config: TrainConfig) -> str:
+    """In words, what a run's score in a sweep of `config` is."""
+    if not config.eval_episodes:
+        return f"the mean of its last {SCORE_WINDOW} training episodes"
+    which = ("its final parameters" if not config.best_eval_interval else
+             f"its best parameters by an evaluation of {config.best_eval_episodes} "
+             f"episodes every {config.best_eval_interval} updates")
+    return f"the mean of {config.eval_episodes} fresh evaluation episodes of {which}"
+
+
 def _run(stacked: Any, r: int) -> Any:
     """Run r's slice of a pytree stacked over runs."""
     return jax.tree.map(lambda x: x[r], stacked)

@@ -23,7 +23,7 @@ from sc2jax.experiments.atomic import atomic_write
 from sc2jax.experiments.checkpoints import write_json_atomic
 from sc2jax.experiments.config import TrainConfig, parse_names
 from sc2jax.experiments.paper import MAPS, NETWORK_ROW, ROW_TITLES, TABLE1
-from sc2jax.experiments.sweeping import run_sweep
+from sc2jax.experiments.sweeping import run_score_rule, run_sweep
 from sc2jax.experiments.trainer import check_run_dir
 
 PAPER_COLUMNS = ("random_policy", "deepmind_human", "grandmaster")
@@ -122,7 +122,8 @@ def build_table1(config: TrainConfig, maps: Sequence[str], learning_rates, run_d
             random_row = random_policy(map_config, random_episodes,
                                        os.path.join(sweep_dir, "random_policy.json"))
         entries[name] = {"sweep": summary, "random_policy": random_row}
-    table = {"agent": config.agent, "learning_rates": rates.tolist(), "maps": entries}
+    table = {"agent": config.agent, "learning_rates": rates.tolist(),
+             "run_score": run_score_rule(config), "maps": entries}
     write_json_atomic(os.path.join(run_dir, "table1.json"), table)
     with atomic_write(os.path.join(run_dir, "table1.md")) as f:
         f.write(table1_markdown(table))
@@ -165,5 +166,6 @@ def table1_markdown(table: dict) -> str:
             + ([_paper(paper_agent, name)] if paper_agent else []) + paper[1:]) + " |")
     runs = len(table["learning_rates"])
     rates = table["learning_rates"]
+    rule = f" A run's score is {table['run_score']}." if "run_score" in table else ""
     return (f"Table 1 for sc2jax: {agent}, {runs} runs per map, learning rates "
-            f"{min(rates):.2e}–{max(rates):.2e}.\n\n" + "\n".join(lines) + "\n")
+            f"{min(rates):.2e}–{max(rates):.2e}.{rule}\n\n" + "\n".join(lines) + "\n")

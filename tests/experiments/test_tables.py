@@ -96,6 +96,8 @@ def test_table_runs_each_map_once_and_resumes(tmp_path, fake_sweeps, monkeypatch
     with open(tmp_path / "table1.json") as f:
         assert json.load(f)["maps"].keys() == set(maps)
     assert (tmp_path / "table1.md").read_text() == tables.table1_markdown(table)
+    assert "A run's score is the mean of its last 100 training episodes." in (
+        tmp_path / "table1.md").read_text()
 
     # Again: nothing is trained or measured again.
     def measured(*_):

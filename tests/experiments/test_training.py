@@ -189,6 +189,9 @@ def test_sweep_keeps_each_runs_best_parameters_by_periodic_evaluation(tmp_path):
                             "best_eval_interval": 4, "best_eval_episodes": 2})
     summary = sampling.run_sweep(config, [1e-3, 1e-2], str(tmp_path), log=lambda _: None)
     assert set(summary["best_updates"]) <= {4, 8, 12, 16}
+    assert sampling.run_score_rule(config) == ("the mean of 2 fresh evaluation episodes of "
+                                               "its best parameters by an evaluation of 2 "
+                                               "episodes every 4 updates")
     assert len(summary["final_scores"]) == 2
     agent = trainer.build(config)
     with Checkpointer(tmp_path / "best", max_to_keep=1) as checkpointer:
