@@ -140,6 +140,8 @@ def make_actor_critic_loss(network: nn.Module, *, value_weight: float = 0.5,
             "value_loss": jnp.mean(res.value_loss),
             "entropy_loss": jnp.mean(res.entropy_loss),
             "function_entropy": jnp.mean(ent.function),
+            # The screen argument's entropy at every visited state, used or not.
+            "screen_entropy": jnp.mean(ent.arguments[0]),
             "advantage": jnp.mean(res.advantage),
             "value": jnp.mean(out.value[:t]),
             "value_target": jnp.mean(res.value_target),

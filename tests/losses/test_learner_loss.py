@@ -30,6 +30,9 @@ def test_unused_argument_heads_get_no_gradient():
     grads, metrics = jax.jit(jax.grad(loss_fn, has_aux=True))(params, _trajectory("fullyconv", 0))
     assert np.isfinite(metrics["loss"]) and set(metrics) >= {
         "policy_loss", "value_loss", "entropy_loss", "function_entropy", "advantage"}
+    # A fresh network's screen policy is near-uniform over the pixels (used or not).
+    pixels = np.prod(_trajectory("fullyconv", 0).observation["feature_screen"].shape[-2:])
+    assert np.log(pixels) - 0.5 < metrics["screen_entropy"] <= np.log(pixels) + 1e-4
     heads = grads["params"]["heads"]
     for name in ("point_heads", "scalar_heads"):
         for leaf in jax.tree.leaves(heads[name]):
