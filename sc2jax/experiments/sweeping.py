@@ -132,8 +132,8 @@ def run_sweep(config: TrainConfig, learning_rates, sweep_dir: str, *,
                               "max": float(run_max[r]) if np.isfinite(run_max[r]) else None})
             if (time.time() - last_save >= config.checkpoint_interval_s
                     or update >= config.total_updates):
+                kept.save()  # First, as in `train`.
                 checkpointer.save(update, state, {"update": update, "env_steps": env_steps})
-                kept.save()
                 last_save = time.time()
             best = max((np.mean(r) for r in recent if r), default=float("nan"))
             log(f"  {env_steps} steps per run, best recent mean {best:.2f} "

@@ -330,12 +330,14 @@ def train(config: TrainConfig, run_dir: str, *, log: Callable[[str], None] = pri
             if (time.time() - last_save >= config.checkpoint_interval_s
                     or update >= stop_at):
                 writer.flush()
-                checkpointer.save(update, state, {"update": update, "env_steps": env_steps})
+                # The best first: a crash between the two saves then resumes from the
+                # previous checkpoint, which chooses the same best again.
                 if best_unsaved:
                     if best_checkpointer is None:
                         best_checkpointer = Checkpointer(best_dir, max_to_keep=1)
                     best_checkpointer.save(best[0]["update"], best[1], best[0])
                     best_unsaved = False
+                checkpointer.save(update, state, {"update": update, "env_steps": env_steps})
                 last_save = time.time()
         if loop is not None:
             loop.close()  # The evaluation steps the games next.
