@@ -112,7 +112,8 @@ def _select_targets(units: Units, data, gap, enemy):
 
 
 def game_loop(units: Units, key, playable, bursts: bool = False, workers: bool = False,
-              combat: bool = True, colliders: int | None = None) -> tuple[Units, LoopEvents]:
+              combat: bool = True, colliders: int | None = None,
+              field_slots: int | None = None) -> tuple[Units, LoopEvents]:
     """Advances all units by one game loop.
 
     Args:
@@ -126,6 +127,8 @@ def game_loop(units: Units, key, playable, bursts: bool = False, workers: bool =
         and attacks.
       colliders: (static) None, or the number of leading slots that can hold units that
         collide (`MiniGame.collider_slots`); collisions are resolved among those alone.
+      field_slots: (static) None, or the number of leading slots that can hold mineral
+        fields (`MiniGame.field_slots`); workers look for free fields among those alone.
 
     Returns:
       The new units and the loop's events.
@@ -136,7 +139,7 @@ def game_loop(units: Units, key, playable, bursts: bool = False, workers: bool =
     pos = units.pos
     rows = jnp.arange(n)
 
-    if combat or workers:  # Pair distances; maps with neither need none.
+    if combat:  # Pair distances; maps without enemies need none.
         diff = pos[:, None, :] - pos[None, :, :]
         dist = jnp.sqrt(squared_length(diff) + 1e-12)
         gap = dist - data.radius[:, None] - data.radius[None, :]
@@ -174,9 +177,12 @@ def game_loop(units: Units, key, playable, bursts: bool = False, workers: bool =
     # touch it.
     gathering = jnp.zeros(n, bool)
     if workers:
-        units = harvest.resolve_returns(units, dist)
+        # No unit's type, owner or completion changes before the harvest below, so this
+        # holds for it too (by the positions at the loop's start).
+        depot = harvest.nearest_depot(units)
+        units = harvest.resolve_returns(units, depot)
         gathering = harvest.working(units)
-        to_unit, unit_goal, unit_room = harvest.approach(units, gap)
+        to_unit, unit_goal, unit_room = harvest.approach(units, data.radius)
         goal = jnp.where(to_unit[:, None], pos[unit_goal], goal)
         to_goal = goal - pos
         goal_dist = jnp.sqrt(squared_length(to_goal) + 1e-12)
@@ -256,7 +262,7 @@ def game_loop(units: Units, key, playable, bursts: bool = False, workers: bool =
                      - data.radius - data.radius[unit_goal])
         units = units.replace(pos=new_pos, alive=alive)
         units, minerals, vespene, ended = harvest.harvest(
-            units, gathering & (gap_after <= harvest.REACH), dist)
+            units, gathering & (gap_after <= harvest.REACH), depot, field_slots)
         units = pop_order(units, ended)
         alive = units.alive
     events = LoopEvents(

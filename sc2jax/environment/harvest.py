@@ -27,7 +27,9 @@ from __future__ import annotations
 
 import jax.numpy as jnp
 
-from sc2jax.environment.state import NO_TARGET, Order, Units
+from sc2jax.environment.geometry import squared_length
+from sc2jax.environment.lazy import lazy_where
+from sc2jax.environment.state import NO_TARGET, Order, Units, leading_slots
 from sc2jax.environment.units import LOOPS_PER_SECOND, UnitType
 
 REACH = 0.1
@@ -56,26 +58,50 @@ def working(units: Units):
     return harvesting(units) | (units.alive & (units.orders[:, 0] == Order.CONSTRUCT))
 
 
-def nearest_depot(units: Units, dist):
-    """int32[N]: each unit's nearest own complete Command Center (by centre distance),
-    or -1.
+DEPOT_SLOTS = 4
+"""Command Centers `nearest_depot` measures to directly; an environment with more (the
+player built them) measures to every slot."""
 
-    Args:
-      units: the units.
-      dist: float32[N, N] centre distances.
+
+def distances(pos, to, eps=1e-12):
+    """float32[N, M]: centre distances sqrt(|pos[i] - to[j]|² + eps) (pos float32[N, 2],
+    to float32[M, 2]): the engine's pair distance, for a few columns."""
+    return jnp.sqrt(squared_length(pos[:, None, :] - to[None, :, :]) + eps)
+
+
+def nearest_depot(units: Units, eps=1e-12):
+    """int32[N]: each unit's nearest own complete Command Center (by centre distance,
+    `distances` with `eps`; the lowest slot on a tie), or -1.
+
+    It measures to the first `DEPOT_SLOTS` Command Centers ([N, 4] distances), and to
+    every slot ([N, N]) only in an environment that has more (`lazy_where`).
     """
+    n = units.num_slots
     depot = units.complete & (units.type == UnitType.COMMAND_CENTER)
-    mine = depot[None, :] & (units.owner[:, None] == units.owner[None, :])
-    nearest = jnp.argmin(jnp.where(mine, dist, jnp.inf), axis=1).astype(jnp.int32)
+    first = jnp.nonzero(depot, size=DEPOT_SLOTS, fill_value=n)[0]
+    return lazy_where(depot.sum() > DEPOT_SLOTS,
+                      lambda u: _nearest_of(u, jnp.arange(n), eps), units,
+                      _nearest_of(units, first, eps))
+
+
+def _nearest_of(units: Units, slots, eps):
+    """int32[N]: `nearest_depot` among the Command Centers in `slots` (int32[M],
+    ascending; N marks none)."""
+    n = units.num_slots
+    at = jnp.clip(slots, 0, n - 1)
+    depot = (slots < n) & units.complete[at] & (units.type[at] == UnitType.COMMAND_CENTER)
+    mine = depot[None, :] & (units.owner[:, None] == units.owner[at][None, :])
+    dist = distances(units.pos, units.pos[at], eps)
+    nearest = at[jnp.argmin(jnp.where(mine, dist, jnp.inf), axis=1)].astype(jnp.int32)
     return jnp.where(mine.any(axis=1), nearest, NO_TARGET)
 
 
-def approach(units: Units, gap):
+def approach(units: Units, radius):
     """Where working workers (`working`) walk this loop.
 
     Args:
       units: the units.
-      gap: float32[N, N] edge-to-edge distances.
+      radius: float32[N] the units' radii.
 
     Returns:
       (walking bool[N], target int32[N] the unit walked to, room float32[N] the
@@ -84,21 +110,24 @@ def approach(units: Units, gap):
     n = units.num_slots
     walking = working(units) & (units.work <= 0)
     target = jnp.clip(units.order_unit[:, 0], 0, n - 1)
+    # Edge to edge, from the [N, N] pair array: XLA rounds a per-row distance differently
+    # in the last bit, and this keeps the engine's trajectories as they were.
+    gap = distances(units.pos, units.pos) - radius[:, None] - radius[None, :]
     left = gap[jnp.arange(n), target]
     room = jnp.where(left > REACH, left - REACH + 1e-3, 0.0)
     return walking, target, room
 
 
-def resolve_returns(units: Units, dist) -> Units:
+def resolve_returns(units: Units, depot) -> Units:
     """Gives RETURN orders without a target (`Harvest_Return`) the nearest Command
-    Center, before the loop's movement."""
+    Center (`depot`, int32[N] from `nearest_depot`), before the loop's movement."""
     first = units.orders[:, 0] == Order.RETURN
     unset = first & (units.order_unit[:, 0] < 0)
     return units.replace(order_unit=units.order_unit.at[:, 0].set(
-        jnp.where(unset, nearest_depot(units, dist), units.order_unit[:, 0])))
+        jnp.where(unset, depot, units.order_unit[:, 0])))
 
 
-def _spread(units: Units, field, blocked, dist, contents):
+def _spread(units: Units, field, blocked, contents, field_slots):
     """int32[N]: where workers that find their mineral field taken go next.
 
     One such worker per field a loop moves on to the nearby field (within
@@ -110,31 +139,36 @@ def _spread(units: Units, field, blocked, dist, contents):
       units: the units.
       field: int32[N] each worker's field (valid where `blocked`).
       blocked: bool[N] gatherers touching a taken field.
-      dist: float32[N, N] centre distances.
       contents: float32[N] the resources left.
+      field_slots: (static) None, or the number of leading slots that can hold mineral
+        fields (`MiniGame.field_slots`); the others are not looked at.
     """
     n = units.num_slots
     rows = jnp.arange(n)
     gathering = units.alive & (units.orders[:, 0] == Order.GATHER)
     assigned = jnp.zeros(n, jnp.int32).at[jnp.clip(units.order_unit[:, 0], 0, n - 1)].add(
         gathering.astype(jnp.int32))
-    fields = units.alive & (units.type == UnitType.MINERAL_FIELD) & (contents > 0)
-    near = fields[None, :] & (dist[field] <= SPREAD_RADIUS)
-    cost = jnp.where(near, assigned[None, :] * 1000.0 + dist[field], jnp.inf)
+    fields = leading_slots(units.alive & (units.type == UnitType.MINERAL_FIELD)
+                           & (contents > 0), field_slots)
+    dist = distances(units.pos[field], leading_slots(units.pos, field_slots))
+    near = fields[None, :] & (dist <= SPREAD_RADIUS)
+    cost = jnp.where(near, leading_slots(assigned, field_slots)[None, :] * 1000.0 + dist,
+                     jnp.inf)
     best = jnp.argmin(cost, axis=1).astype(jnp.int32)
     first = jnp.full(n, n, jnp.int32).at[field].min(jnp.where(blocked, rows, n))
     moves = blocked & (first[field] == rows) & (assigned[best] < assigned[field] - 1)
     return jnp.where(moves, best, field)
 
 
-def harvest(units: Units, touching, dist) -> tuple[Units, jnp.ndarray, jnp.ndarray,
-                                                   jnp.ndarray]:
+def harvest(units: Units, touching, depot, field_slots=None) -> tuple[
+        Units, jnp.ndarray, jnp.ndarray, jnp.ndarray]:
     """One loop of the harvest cycle, after the loop's movement.
 
     Args:
       units: the units after moving.
       touching: bool[N] the unit touches its order's target unit.
-      dist: float32[N, N] centre distances (to find Command Centers).
+      depot: int32[N] each unit's nearest Command Center (`nearest_depot`).
+      field_slots: (static) as in `_spread`.
 
     Returns:
       (units, minerals, vespene, done): minerals and vespene are float32[N], what each
@@ -152,7 +186,6 @@ def harvest(units: Units, touching, dist) -> tuple[Units, jnp.ndarray, jnp.ndarr
     field_ok = (target >= 0) & units.alive[safe] & (units.contents[safe] > 0) & harvestable
     gather = units.alive & (order == Order.GATHER)
     returning = units.alive & (order == Order.RETURN)
-    depot = nearest_depot(units, dist)
 
     # Mining: the clock runs down; a finished worker takes its cargo. A worker leaving a
     # mineral field pauses first (its RETURN waits while `work` > 0).
@@ -172,7 +205,7 @@ def harvest(units: Units, touching, dist) -> tuple[Units, jnp.ndarray, jnp.ndarr
     work = jnp.where(start, jnp.where(refinery, GAS_LOOPS, MINING_LOOPS),
                      jnp.where(finished, jnp.where(refinery, 0.0, LEAVE_LOOPS), work))
     blocked = waiting & ~start & ~refinery
-    target = jnp.where(blocked, _spread(units, safe, blocked, dist, contents), target)
+    target = jnp.where(blocked, _spread(units, safe, blocked, contents, field_slots), target)
 
     # Depositing at the Command Center.
     deposit = returning & touching & (units.cargo > 0)

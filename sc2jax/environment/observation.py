@@ -157,7 +157,7 @@ def harvesters(units: Units):
     on_minerals = worker & (units.type[home] == UnitType.MINERAL_FIELD)
     diff = units.pos[:, None, :] - units.pos[None, :, :]
     dist = jnp.sqrt(squared_length(diff))
-    depot = nearest_depot(units, dist)[home]
+    depot = nearest_depot(units, eps=0.0)[home]
     count = lambda where, at: jnp.zeros(n, jnp.int32).at[  # noqa: E731
         jnp.where(where, at, n)].add(1, mode="drop")
     fields = units.alive & (units.type == UnitType.MINERAL_FIELD) & (units.contents > 0)

@@ -208,7 +208,8 @@ class Simulator:
             units, events = game_loop(state.units, loop_key, game.geometry.playable,
                                       bursts=game.has_bursts, workers=game.has_workers,
                                       combat=game.has_enemies,
-                                      colliders=game.collider_slots)
+                                      colliders=game.collider_slots,
+                                      field_slots=game.field_slots)
             minerals = state.minerals + events.minerals.astype(jnp.int32)
             next_tag, spent = state.next_tag, jnp.int32(0)
             if game.has_production:

@@ -16,7 +16,8 @@ import numpy as np
 from sc2jax.environment import FUNCTIONS, commands
 from sc2jax.environment.availability import available_actions
 from sc2jax.environment.dynamics import game_loop
-from sc2jax.environment.harvest import LEAVE_LOOPS, MINING_LOOPS, REACH
+from sc2jax.environment.harvest import (DEPOT_SLOTS, LEAVE_LOOPS, MINING_LOOPS, REACH,
+                                        nearest_depot)
 from sc2jax.environment.state import Order, Owner
 from sc2jax.environment.units import UNIT_DATA, UnitType
 
@@ -123,3 +124,47 @@ def test_only_workers_take_harvest_orders_and_return_cargo_needs_cargo():
     assert delivered.sum() == 5.0 and float(after.cargo[2]) == 0.0
     # With no home field it then goes idle.
     assert int(after.orders[2, 0]) == Order.NONE
+
+
+def _brute_nearest_depot(units):
+    """nearest_depot by hand: every own complete Command Center, the lowest slot on a tie."""
+    units = jax.device_get(units)
+    depots = np.nonzero(units.complete & (units.type == UnitType.COMMAND_CENTER))[0]
+    nearest = []
+    for i in range(len(units.pos)):
+        mine = [j for j in depots if units.owner[j] == units.owner[i]]
+        d = [np.hypot(*(units.pos[i] - units.pos[j])) for j in mine]
+        nearest.append(mine[int(np.argmin(d))] if mine else -1)
+    return np.array(nearest)
+
+
+def depot_scene(num_ccs):
+    """`num_ccs` Command Centers of the player in a row (one more, incomplete, and one of
+    the enemy's), with SCVs and a mineral field scattered between them."""
+    xs = [14.0 + 7.0 * k for k in range(num_ccs)]
+    spec = [(2 * k, UnitType.COMMAND_CENTER, Owner.SELF, (x, 20.0), False)
+            for k, x in enumerate(xs)]
+    spec += [(15, UnitType.COMMAND_CENTER, Owner.SELF, (40.0, 40.0), False),
+             (16, UnitType.COMMAND_CENTER, Owner.ENEMY, (12.0, 30.0), False),
+             (17, UnitType.MINERAL_FIELD, Owner.NEUTRAL, (30.0, 33.0), False)]
+    # Slot 1 is as far from the first two Command Centers: the tie goes to slot 0.
+    spec += [(1, UnitType.SCV, Owner.SELF, (17.5, 25.0), False)]
+    spec += [(18 + k, UnitType.SCV, Owner.SELF, (11.0 + 3.7 * k, 27.0 - 1.3 * k), False)
+             for k in range(10)]
+    units = make_units(32, spec)
+    return units.replace(progress=units.progress.at[15].set(0.0))  # Still building.
+
+
+def test_nearest_depot_measures_to_every_command_center_also_beyond_those_it_checks_first():
+    few, many = depot_scene(2), depot_scene(DEPOT_SLOTS + 3)
+    for units in (few, many):
+        nearest = np.asarray(jax.jit(nearest_depot)(units))
+        np.testing.assert_array_equal(nearest, _brute_nearest_depot(units))
+        assert nearest[1] == 0  # The tie.
+        assert nearest[16] == 16 and nearest[17] == -1  # The enemy's own; a field has none.
+    assert np.asarray(nearest_depot(many))[27] == 2 * DEPOT_SLOTS  # The fifth.
+    # A batch of both: the environment with more Command Centers measures to all of them.
+    batch = jax.tree_util.tree_map(lambda a, b: jnp.stack([a, b]), few, many)
+    nearest = np.asarray(jax.jit(jax.vmap(nearest_depot))(batch))
+    np.testing.assert_array_equal(nearest[0], _brute_nearest_depot(few))
+    np.testing.assert_array_equal(nearest[1], _brute_nearest_depot(many))

@@ -59,6 +59,9 @@ class MiniGame:
       own_slots: None where any slot can hold one of the player's units; else the
         player's units are only ever in the first `own_slots` slots, and fog of war
         looks through those alone.
+      field_slots: None where any slot can hold a mineral field; else mineral fields are
+        only ever in the first `field_slots` slots (none is ever created), and
+        workers look for free fields among those alone.
     """
 
     name: str
@@ -72,6 +75,7 @@ class MiniGame:
     has_enemies: bool = True
     collider_slots: int | None = None
     own_slots: int | None = None
+    field_slots: int | None = None
 
     def init(self, key) -> tuple[Units, Any, jax.Array]:
         """Returns the starting units, the script's state, and the next unit tag."""

@@ -75,7 +75,7 @@ class EconomyGame(MiniGame):
         super().__init__(name=name, time_limit=time_limit, num_slots=num_slots,
                          geometry=flat_geometry(REGION_1), fog=False, camera=CAMERA,
                          unit_types=_UNIT_TYPES, starting_minerals=STARTING_MINERALS,
-                         has_enemies=False)
+                         has_enemies=False, field_slots=len(self.FIELDS))
 
     @property
     def command_center(self) -> int:
