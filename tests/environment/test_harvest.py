@@ -16,8 +16,7 @@ import numpy as np
 from sc2jax.environment import FUNCTIONS, commands
 from sc2jax.environment.availability import available_actions
 from sc2jax.environment.dynamics import game_loop
-from sc2jax.environment.harvest import (DEPOT_SLOTS, LEAVE_LOOPS, MINING_LOOPS, REACH,
-                                        nearest_depot)
+from sc2jax.environment.harvest import DEPOT_SLOTS, LEAVE_LOOPS, MINING_LOOPS, REACH, nearest_depot
 from sc2jax.environment.state import Order, Owner
 from sc2jax.environment.units import UNIT_DATA, UnitType
 
