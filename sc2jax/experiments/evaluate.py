@@ -13,7 +13,8 @@ processes launched from `--sc2path`, each playing its share of the episodes in t
 
 Prints the mean, std and max episode score beside the paper's Table 1, and with
 `--output` writes them as JSON: `episodes`, `mean`, `std`, `max`, `min`, `scores` (every
-episode's score) and the resolved `config`.
+episode's score) and the resolved `config` (for a trained run, its own map, agent,
+sizes, action set and the agent steps it was trained for).
 """
 
 from __future__ import annotations
@@ -89,6 +90,11 @@ def main(argv) -> None:
         except (FileNotFoundError, ValueError) as error:
             sys.exit(f"error: {error}")
         config, agent_name = trained.config, trained.config.agent
+        # What was evaluated: the run's own map and format, not the flags' defaults.
+        resolved = dict(map=config.map_name, agent=agent_name,
+                        screen_size=config.screen_size, minimap_size=config.minimap_size,
+                        step_mul=config.step_mul, functions=config.functions,
+                        env_steps=meta["env_steps"])
         core = actor_core(trained.network, _TEMPERATURE.value, config.functions)
         print(f"Restored {agent_name} after {meta['env_steps']} agent steps from "
               f"{_RUN_DIR.value}")
@@ -114,6 +120,7 @@ def main(argv) -> None:
         sizes = dict(screen_size=_SCREEN.value, minimap_size=_MINIMAP.value,
                      step_mul=_STEP_MUL.value, **extra)
         agent_name, map_name = _AGENT.value, _MAP.value
+        resolved = {}
         if on_game:
             games = GameEnvBatch([make(map_name, seed=_SEED.value + i, backend="sc2",
                                        sc2path=_SC2PATH.value, **sizes)
@@ -153,11 +160,12 @@ def main(argv) -> None:
         print("The paper's Table 1:")
         print(paper_rows(map_name))
     if _OUTPUT.value:
-        config = {flag.name: flag.value for flag in (
+        flag_values = {flag.name: flag.value for flag in (
             _MAP, _BACKEND, _AGENT, _EPISODES, _NUM_ENVS, _SCREEN, _MINIMAP, _STEP_MUL,
             _SEED, _RUN_DIR, _STEP, _BEST, _TEMPERATURE)}
         write_json_atomic(_OUTPUT.value, {**s, "scores": stats.scores.tolist(),
-                                          "steps": stats.steps.tolist(), "config": config})
+                                          "steps": stats.steps.tolist(),
+                                          "config": {**flag_values, **resolved}})
         print(f"Wrote {_OUTPUT.value}")
 
 

@@ -5,6 +5,8 @@ from __future__ import annotations
 
 import json
 import os
+import subprocess
+import sys
 
 import jax
 import jax.numpy as jnp
@@ -99,6 +101,17 @@ def test_trained_run_can_be_evaluated(tmp_path):
     jax.tree.map(np.testing.assert_array_equal, params, result.state.learner.params)
     stats = evaluation.run_core_episodes(agent.sim, agent.core, params, 2, num_envs=2)
     assert stats.scores.shape == (2,) and (stats.steps > 0).all()
+    # The command line's JSON names what it evaluated: the run's map and format, not
+    # the flags' defaults (a random agent at 64x64).
+    path = tmp_path / "eval.json"
+    out = subprocess.run(
+        [sys.executable, "-m", "sc2jax.experiments.evaluate", f"--run_dir={run}",
+         "--episodes=1", "--num_envs=1", f"--output={path}"],
+        capture_output=True, text=True, timeout=300)
+    assert out.returncode == 0, out.stderr
+    config = json.loads(path.read_text())["config"]
+    assert config["agent"] == "atari" and config["screen_size"] == 16, config
+    assert config["env_steps"] == meta["env_steps"] and config["run_dir"] == run
     with pytest.raises(FileNotFoundError, match="not a run directory"):
         trainer.load_run(str(tmp_path / "missing"))
 
