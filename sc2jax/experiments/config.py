@@ -53,6 +53,9 @@ class TrainConfig:
       value_weight: β.
       entropy_weight: η, for the function id and each argument.
       rmsprop_decay, rmsprop_epsilon: RMSProp's settings.
+      non_point_rate_scale: multiplies the learning rate of every parameter outside the
+        spatial-argument heads (1: the paper's single rate). Not for "arfullyconv", whose
+        spatial heads are part of its autoregressive chain.
       max_grad_norm: global gradient-norm clipping (0: none).
       off_policy_correction: "none" (A3C's n-step returns) or "vtrace".
       seed: the run's seed (parameters, environments and actions).
@@ -87,6 +90,7 @@ class TrainConfig:
     entropy_weight: float = 1e-3
     rmsprop_decay: float = 0.99
     rmsprop_epsilon: float = 1e-5
+    non_point_rate_scale: float = 1.0
     max_grad_norm: float = 10.0
     off_policy_correction: str = "none"
     seed: int = 0
@@ -125,11 +129,16 @@ class TrainConfig:
         for name in ("step_mul", "num_envs", "unroll_length", "total_steps",
                      "updates_per_chunk"):
             check_positive_int(name, getattr(self, name))
-        for name in ("learning_rate", "rmsprop_epsilon", "checkpoint_interval_s"):
+        for name in ("learning_rate", "rmsprop_epsilon", "non_point_rate_scale",
+                     "checkpoint_interval_s"):
             _positive_float(name, getattr(self, name))
         for name in ("value_weight", "entropy_weight", "max_grad_norm"):
             if not getattr(self, name) >= 0:
                 raise ValueError(f"{name} must be >= 0, got {getattr(self, name)!r}")
+        if self.non_point_rate_scale != 1.0 and self.agent == "arfullyconv":
+            raise ValueError(f"non_point_rate_scale={self.non_point_rate_scale!r} needs a "
+                             f"network with point heads (atari, fullyconv, fullyconv_lstm), "
+                             f"not 'arfullyconv'; use 1")
         if not 0.0 <= self.discount <= 1.0:
             raise ValueError(f"discount must be in [0, 1], got {self.discount!r}")
         if not 0.0 <= self.rmsprop_decay < 1.0:

@@ -45,6 +45,9 @@ class OptimiserConfig:
         initial value (then stays there).
       warmup_updates: updates over which the rate first rises linearly from 0 (0: none,
         the paper's schedule).
+      non_point_rate_scale: multiplies the rate of every parameter outside the
+        spatial-argument heads (those under a module named `point_heads`; 1: one rate
+        for all, the paper's setting).
     """
 
     decay: float = 0.99
@@ -52,6 +55,7 @@ class OptimiserConfig:
     max_grad_norm: float = 10.0
     anneal_updates: int = 1
     warmup_updates: int = 0
+    non_point_rate_scale: float = 1.0
 
     def __post_init__(self):
         if not 0.0 <= self.decay < 1.0:
@@ -62,6 +66,9 @@ class OptimiserConfig:
             raise ValueError(f"max_grad_norm must be >= 0, got {self.max_grad_norm!r}")
         check_positive_int("anneal_updates", self.anneal_updates)
         check_non_negative_int("warmup_updates", self.warmup_updates)
+        if not self.non_point_rate_scale > 0:
+            raise ValueError(f"non_point_rate_scale must be > 0, got "
+                             f"{self.non_point_rate_scale!r}")
 
 
 class LearnerState(struct.PyTreeNode):
@@ -99,6 +106,13 @@ def annealed_learning_rate(initial: jax.Array, update: jax.Array, anneal_updates
     return initial * warmup * (1.0 - 0.5 * fraction)
 
 
+def in_point_heads(path) -> bool:
+    """Whether a parameter's pytree path (`jax.tree_util` keys) lies under a module
+    named `point_heads` (the spatial-argument heads of Atari-net, FullyConv and
+    FullyConv LSTM)."""
+    return any(getattr(key, "key", None) == "point_heads" for key in path)
+
+
 def init_params(network: nn.Module, key: jax.Array, observation: Mapping[str, jax.Array]):
     """Initialises any of the four networks from a batch of observations [B, ...]."""
     if isinstance(network, FullyConvLSTM):
@@ -132,6 +146,10 @@ def make_learner(network: nn.Module, loss_fn: LossFn, config: OptimiserConfig) -
         grad_fn = jax.grad(loss_fn, has_aux=True)
         grads, metrics = grad_fn(state.params, trajectory)
         steps, opt_state = direction.update(grads, state.opt_state, state.params)
+        if config.non_point_rate_scale != 1.0:
+            steps = jax.tree_util.tree_map_with_path(
+                lambda path, s: s if in_point_heads(path) else config.non_point_rate_scale * s,
+                steps)
         rate = annealed_learning_rate(state.learning_rate, state.update, config.anneal_updates,
                                       config.warmup_updates)
         params = optax.apply_updates(state.params, jax.tree.map(lambda s: -rate * s, steps))

@@ -133,7 +133,8 @@ def build(config: TrainConfig) -> Agent:
     optimiser = OptimiserConfig(decay=config.rmsprop_decay, epsilon=config.rmsprop_epsilon,
                                 max_grad_norm=config.max_grad_norm,
                                 anneal_updates=config.total_updates,
-                                warmup_updates=config.warmup_updates)
+                                warmup_updates=config.warmup_updates,
+                                non_point_rate_scale=config.non_point_rate_scale)
     return Agent(config, sim, network, actor_core(network, functions=config.functions),
                  make_learner(network, loss, optimiser))
 

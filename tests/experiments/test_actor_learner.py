@@ -3,6 +3,7 @@ runs are in test_training.py, in a file of their own so that test workers share 
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import threading
 
@@ -75,6 +76,28 @@ def test_scan_and_loop_chunks_agree_and_learn(agent):
         changed = jax.tree.map(lambda a, b: bool(np.any(a != np.asarray(b))),
                                before["params"][name], s1.learner.params["params"][name])
         assert all(jax.tree.leaves(changed)), name
+
+
+def test_non_point_rate_scale_scales_all_but_the_point_heads(agent):
+    unroll = make_unroll(agent.sim, agent.core, TINY.unroll_length)
+    state = agent.initial_state(jax.random.PRNGKey(2))
+    _, traj, _ = jax.jit(unroll.unroll)(state.learner.params, state.actor)
+    scaled = trainer.build(dataclasses.replace(TINY, non_point_rate_scale=0.25)).learner
+    deltas = []
+    for learner in (agent.learner, scaled):
+        new, _ = jax.jit(learner.update)(state.learner, traj)
+        deltas.append(jax.tree.map(lambda a, b: np.asarray(a) - np.asarray(b),
+                                   new.params["params"], state.learner.params["params"]))
+    full, quarter = deltas
+    # The spatial heads take the same step; every other parameter a quarter of it.
+    jax.tree.map(np.testing.assert_array_equal, full["point_heads"], quarter["point_heads"])
+    assert any(np.any(d != 0) for d in jax.tree.leaves(full["point_heads"]))
+    for name in ("fc", "value", "function", "screen_conv"):
+        # (Deltas of float32 parameters near 0.01 are rounded to about 1e-9.)
+        jax.tree.map(lambda a, b: np.testing.assert_allclose(b, 0.25 * a, rtol=1e-5,
+                                                             atol=3e-8),
+                     full[name], quarter[name])
+        assert any(np.any(d != 0) for d in jax.tree.leaves(full[name])), name
 
 
 def test_sweep_chunk_trains_each_run_as_if_alone(agent):

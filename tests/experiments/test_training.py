@@ -40,6 +40,8 @@ TINY = TrainConfig(map_name="MoveToBeacon", agent="atari", screen_size=16, minim
     (dict(off_policy_correction="retrace"), "unknown off_policy_correction"),
     (dict(best_eval_interval=-1), "best_eval_interval must be an int >= 0, got -1"),
     (dict(best_eval_episodes=0), "best_eval_episodes must be a positive int"),
+    (dict(non_point_rate_scale=0.0), "non_point_rate_scale must be a positive number"),
+    (dict(agent="arfullyconv", non_point_rate_scale=0.1), "needs a network with point heads"),
     (dict(backend="sc2", best_eval_interval=5), "best_eval_interval=5 needs backend"),
 ])
 def test_config_rejects_bad_values(change, message):
