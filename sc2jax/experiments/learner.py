@@ -139,6 +139,10 @@ def make_learner(network: nn.Module, loss_fn: LossFn, config: OptimiserConfig) -
 
     def init(key, observation, learning_rate) -> LearnerState:
         params = init_params(network, key, observation)
+        if config.non_point_rate_scale != 1.0 and not any(
+                in_point_heads(path) for path, _ in jax.tree_util.tree_leaves_with_path(params)):
+            raise ValueError(f"non_point_rate_scale={config.non_point_rate_scale!r} needs a "
+                             f"network with `point_heads`; {type(network).__name__} has none")
         return LearnerState(params, direction.init(params), jnp.int32(0),
                             jnp.asarray(learning_rate, jnp.float32))
 

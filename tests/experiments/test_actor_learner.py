@@ -21,6 +21,7 @@ from sc2jax.experiments.actor import make_unroll
 from sc2jax.experiments.compiled_loop import make_train_chunk
 from sc2jax.experiments.config import TrainConfig
 from sc2jax.experiments.host_actor import HostActor, run_split_loop
+from sc2jax.experiments.learner import OptimiserConfig, make_learner
 from sc2jax.experiments.metrics_log import read_csv
 from sc2jax.losses.learner_loss import unroll as network_unroll
 from sc2jax.networks import policy
@@ -98,6 +99,12 @@ def test_non_point_rate_scale_scales_all_but_the_point_heads(agent):
                                                              atol=3e-8),
                      full[name], quarter[name])
         assert any(np.any(d != 0) for d in jax.tree.leaves(full[name])), name
+    # A network without point heads is refused, not scaled all over.
+    ar = trainer.build(dataclasses.replace(TINY, agent="arfullyconv"))
+    no_heads = make_learner(ar.network, lambda params, traj: (0.0, {}),
+                            OptimiserConfig(non_point_rate_scale=0.5))
+    with pytest.raises(ValueError, match="needs a network with `point_heads`; ARFullyConv"):
+        no_heads.init(jax.random.PRNGKey(0), state.actor.timestep.observation, 1e-3)
 
 
 def test_sweep_chunk_trains_each_run_as_if_alone(agent):
