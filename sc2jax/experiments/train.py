@@ -71,7 +71,7 @@ _EPSILON = flags.DEFINE_float("rmsprop_epsilon", _DEFAULTS.rmsprop_epsilon, "RMS
 _POINT_ONLY = flags.DEFINE_float(
     "non_point_rate_scale", _DEFAULTS.non_point_rate_scale, "Multiplies the learning rate of "
     "every parameter outside the spatial-argument heads (1: one rate, the paper's). 0.1 took "
-    "off on 3 of 12 MoveToBeacon seeds against 1 of 12 (docs/results.md).")
+    "off on 4 of 18 MoveToBeacon seeds against 1 of 18 (docs/results.md).")
 _CLIP = flags.DEFINE_float("max_grad_norm", _DEFAULTS.max_grad_norm,
                            "Global gradient-norm clip (0: none).")
 _CORRECTION = flags.DEFINE_string("off_policy_correction", _DEFAULTS.off_policy_correction,
