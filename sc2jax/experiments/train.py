@@ -68,7 +68,7 @@ _ENTROPY = flags.DEFINE_float("entropy_weight", _DEFAULTS.entropy_weight,
                               "η for the function id and each argument.")
 _DECAY = flags.DEFINE_float("rmsprop_decay", _DEFAULTS.rmsprop_decay, "RMSProp decay.")
 _EPSILON = flags.DEFINE_float("rmsprop_epsilon", _DEFAULTS.rmsprop_epsilon, "RMSProp ε.")
-_POINT_ONLY = flags.DEFINE_float(
+_NON_POINT_SCALE = flags.DEFINE_float(
     "non_point_rate_scale", _DEFAULTS.non_point_rate_scale, "Multiplies the learning rate of "
     "every parameter outside the spatial-argument heads (1: one rate, the paper's). 0.1 took "
     "off on 4 of 18 MoveToBeacon seeds against 1 of 18 (docs/results.md).")
@@ -105,7 +105,7 @@ def config_from_flags() -> TrainConfig:
         num_envs=_NUM_ENVS.value, unroll_length=_UNROLL.value, total_steps=_TOTAL.value,
         learning_rate=_LR.value, warmup_updates=_WARMUP.value, discount=_DISCOUNT.value,
         value_weight=_VALUE.value, entropy_weight=_ENTROPY.value, rmsprop_decay=_DECAY.value,
-        rmsprop_epsilon=_EPSILON.value, non_point_rate_scale=_POINT_ONLY.value,
+        rmsprop_epsilon=_EPSILON.value, non_point_rate_scale=_NON_POINT_SCALE.value,
         max_grad_norm=_CLIP.value,
         off_policy_correction=_CORRECTION.value, seed=_SEED.value,
         updates_per_chunk=_CHUNK.value, checkpoint_interval_s=_CHECKPOINT.value,
