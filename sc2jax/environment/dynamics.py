@@ -1,7 +1,9 @@
 """One game loop of unit behaviour: targets, movement, collisions, attacks and deaths.
 
-All per-unit logic is vectorised over the N slots with [N, N] pair arrays; simultaneous
-damage is combined with scatter-add. Orders (`state.Order`) are executed as the game
+All per-unit logic is vectorised over the N slots, and pairs of units over [N, N] arrays;
+simultaneous damage is combined with scatter-add. On a map whose two sides hold separate
+slot ranges (`team_split`), combat looks only at the pairs across the split: blocks of
+[S, N - S] and [N - S, S] instead of [N, N]. Orders (`state.Order`) are executed as the game
 does for the mini-games:
 
 - idle units, attack-moving and patrolling units acquire the nearest enemy within
@@ -64,10 +66,63 @@ def _data(types):
     return jax.tree_util.tree_map(lambda column: jnp.asarray(column)[types], UNIT_DATA)
 
 
-def hostile(owner):
-    """bool[N, N]: i and j are enemies (the player against player 2)."""
-    a, b = owner[:, None], owner[None, :]
+def hostile(a, b):
+    """bool[R, C]: unit i of owners a (int32[R]) and unit j of owners b (int32[C]) are
+    enemies (the player against player 2)."""
+    a, b = a[:, None], b[None, :]
     return ((a == Owner.SELF) & (b == Owner.ENEMY)) | ((a == Owner.ENEMY) & (b == Owner.SELF))
+
+
+class PairBlock(NamedTuple):
+    """The pairs of two slot ranges, `rows` (R slots) against `cols` (C slots), at the
+    loop's start.
+
+    Attributes:
+      rows, cols: the slot ranges.
+      dist: float32[R, C] centre distances.
+      gap: float32[R, C] edge gaps (the distance less both radii).
+      enemy: bool[R, C] both alive and hostile.
+    """
+
+    rows: slice
+    cols: slice
+    dist: jax.Array
+    gap: jax.Array
+    enemy: jax.Array
+
+    def at(self, slots):
+        """float32[R]: each row's gap to its slot in `slots` (int32[R] in `cols`; rows
+        with a slot outside `cols` get another column's gap)."""
+        local = jnp.clip(slots - self.cols.start, 0, self.gap.shape[1] - 1)
+        return self.gap[jnp.arange(self.gap.shape[0]), local]
+
+
+def pair_blocks(units: Units, data, team_split: int | None) -> list[PairBlock]:
+    """The pairs among which combat happens: all [N, N] pairs, or, where the player's
+    units are only ever in the first `team_split` slots and the enemy's only in the
+    rest, the two blocks across the split (the rows of the two together are all N
+    slots, in order)."""
+    n = units.num_slots
+    if team_split is None:
+        spans = [(slice(0, n), slice(0, n))]
+    else:
+        spans = [(slice(0, team_split), slice(team_split, n)),
+                 (slice(team_split, n), slice(0, team_split))]
+    blocks = []
+    for rows, cols in spans:
+        diff = units.pos[rows, None, :] - units.pos[None, cols, :]
+        dist = jnp.sqrt(squared_length(diff) + 1e-12)
+        gap = dist - data.radius[rows, None] - data.radius[None, cols]
+        enemy = (hostile(units.owner[rows], units.owner[cols]) & units.alive[rows, None]
+                 & units.alive[None, cols])
+        blocks.append(PairBlock(rows, cols, dist, gap, enemy))
+    return blocks
+
+
+def _rows(blocks: list[PairBlock], per_block):
+    """[N, ...]: `per_block(block)` ([R, ...] for each block's rows) in slot order."""
+    parts = [per_block(block) for block in blocks]
+    return parts[0] if len(parts) == 1 else jnp.concatenate(parts)
 
 
 def pop_order(units: Units, done) -> Units:
@@ -86,9 +141,11 @@ def pop_order(units: Units, done) -> Units:
         target=jnp.where(done, NO_TARGET, units.target))
 
 
-def _select_targets(units: Units, data, gap, enemy):
-    """Returns int32[N] the unit each slot engages this loop, or -1."""
-    n = units.num_slots
+def _select_targets(units: Units, data, block: PairBlock):
+    """Returns int32[R] the unit each slot of the block's rows engages this loop (one of
+    its columns), or -1."""
+    units, data = _slice(units, block.rows), _slice(data, block.rows)
+    gap, enemy = block.gap, block.enemy
     order = units.orders[:, 0]
     has_weapon = data.damage > 0
     scan = jnp.where(order == Order.HOLD, data.range, jnp.maximum(data.acquire, data.range))
@@ -98,22 +155,30 @@ def _select_targets(units: Units, data, gap, enemy):
     # holding), unless it is out of weapon range and another enemy is in range.
     keep_range = jnp.where(order == Order.HOLD, data.range, data.sight)
     current = units.target
-    safe = jnp.clip(current, 0, n - 1)
-    rows = jnp.arange(n)
+    first, num_cols = block.cols.start, gap.shape[1]
+    local = jnp.clip(current - first, 0, num_cols - 1)
+    rows = jnp.arange(gap.shape[0])
+    current_gap = gap[rows, local]
     other_in_range = (enemy & (gap <= data.range[:, None])).any(axis=1)
-    keep = (scans & (current >= 0) & enemy[rows, safe] & (gap[rows, safe] <= keep_range)
-            & ~(other_in_range & (gap[rows, safe] > data.range)))
+    keep = (scans & (current >= first) & (current < first + num_cols) & enemy[rows, local]
+            & (current_gap <= keep_range) & ~(other_in_range & (current_gap > data.range)))
     candidate = enemy & (gap <= scan[:, None])
-    nearest = jnp.argmin(jnp.where(candidate, gap, jnp.inf), axis=1)
+    nearest = first + jnp.argmin(jnp.where(candidate, gap, jnp.inf), axis=1)
     acquired = jnp.where(keep, current, jnp.where(candidate.any(axis=1), nearest, NO_TARGET))
     auto = jnp.where(scans, acquired, NO_TARGET)
     ordered = units.order_unit[:, 0]
     return jnp.where(order == Order.ATTACK_UNIT, ordered, auto)
 
 
+def _slice(tree, rows: slice):
+    """The `rows` slots of every array of a per-slot pytree."""
+    return jax.tree.map(lambda x: x[rows], tree)
+
+
 def game_loop(units: Units, key, playable, bursts: bool = False, workers: bool = False,
               combat: bool = True, colliders: int | None = None,
-              field_slots: int | None = None) -> tuple[Units, LoopEvents]:
+              field_slots: int | None = None,
+              team_split: int | None = None) -> tuple[Units, LoopEvents]:
     """Advances all units by one game loop.
 
     Args:
@@ -129,6 +194,9 @@ def game_loop(units: Units, key, playable, bursts: bool = False, workers: bool =
         collide (`MiniGame.collider_slots`); collisions are resolved among those alone.
       field_slots: (static) None, or the number of leading slots that can hold mineral
         fields (`MiniGame.field_slots`); workers look for free fields among those alone.
+      team_split: (static) None, or S where the player's units are only ever in the
+        first S slots and the enemy's only in the rest (`MiniGame.team_split`); combat
+        then looks at the pairs across S alone (`pair_blocks`).
 
     Returns:
       The new units and the loop's events.
@@ -140,10 +208,7 @@ def game_loop(units: Units, key, playable, bursts: bool = False, workers: bool =
     rows = jnp.arange(n)
 
     if combat:  # Pair distances; maps without enemies need none.
-        diff = pos[:, None, :] - pos[None, :, :]
-        dist = jnp.sqrt(squared_length(diff) + 1e-12)
-        gap = dist - data.radius[:, None] - data.radius[None, :]
-        enemy = hostile(units.owner) & alive[:, None] & alive[None, :]
+        blocks = pair_blocks(units, data, team_split)
 
     # Attack-unit orders whose target is gone are complete (only an enemy under the
     # cursor gives one, so maps without enemies have none).
@@ -155,12 +220,13 @@ def game_loop(units: Units, key, playable, bursts: bool = False, workers: bool =
     order = units.orders[:, 0]
 
     if combat:
-        target = _select_targets(units, data, gap, enemy)
+        target = _rows(blocks, lambda block: _select_targets(units, data, block))
     else:
         target = jnp.full(n, NO_TARGET, jnp.int32)
     has_target = (target >= 0) & alive
     safe_target = jnp.clip(target, 0, n - 1)
-    target_gap = gap[rows, safe_target] if combat else jnp.zeros(n)
+    # Targets are enemies, so each lies in its row's block's columns.
+    target_gap = _rows(blocks, lambda b: b.at(target[b.rows])) if combat else jnp.zeros(n)
     in_range = has_target & (target_gap <= data.range) & (data.damage > 0)
 
     # Where each unit heads.
@@ -225,12 +291,19 @@ def game_loop(units: Units, key, playable, bursts: bool = False, workers: bool =
     exploded = jnp.zeros(n, bool)
     if bursts:
         exploded = fires & (data.burst > 0)
-        reach = enemy & (dist - data.radius[None, :] <= data.burst[:, None])
-        splash = jnp.where(reach, _damage_per_hit(data, jnp.broadcast_to(rows, (n, n))), 0.0)
-        received = lambda by: jnp.sum(jnp.where(by[:, None], splash, 0.0), axis=0)  # noqa: E731
+        splashes = [_splash(data, block) for block in blocks]
+
+        def received(by):  # float32[N]: the splash each unit takes from the units `by`.
+            total = jnp.zeros(n, jnp.float32)
+            for block, splash in zip(blocks, splashes):
+                total = total.at[block.cols].add(
+                    jnp.sum(jnp.where(by[block.rows, None], splash, 0.0), axis=0))
+            return total
+
         killed = alive & (units.health - damage - received(exploded) <= 0) & ~exploded
         exploding = exploded | (killed & (data.burst > 0))
-        hits = hits + jnp.where(exploding, splash.sum(axis=1), 0.0)
+        dealt = jnp.concatenate([splash.sum(axis=1) for splash in splashes])
+        hits = hits + jnp.where(exploding, dealt, 0.0)
         damage = damage + received(exploding)
     jitter = jax.random.randint(key, (n,), -1, 3).astype(jnp.float32)
     ready = units.cooldown <= 0.0
@@ -242,10 +315,8 @@ def game_loop(units: Units, key, playable, bursts: bool = False, workers: bool =
     new_target = target
     if combat:
         attacker = jnp.full(n, -1, jnp.int32).at[safe_target].max(jnp.where(fires, rows, -1))
-        ally = ((units.owner[:, None] == units.owner[None, :]) & alive[:, None]
-                & alive[None, :] & (rows[:, None] != rows[None, :]))
-        calls = ally & (gap <= data.acquire[:, None]) & (attacker[None, :] >= 0)
-        called = jnp.max(jnp.where(calls, attacker[None, :], -1), axis=1)
+        called = _rows(blocks, lambda block: _called(units, data, block, fires, safe_target,
+                                                     attacker))
         answer = jnp.where(attacker >= 0, attacker, called)
         idle = units.orders[:, 0] == Order.NONE
         retaliate = idle & (answer >= 0) & (units.target < 0) & (data.damage > 0)
@@ -281,21 +352,56 @@ def game_loop(units: Units, key, playable, bursts: bool = False, workers: bool =
     return _complete_orders(units, pos, step, goal_dist, has_target, moving), events
 
 
-def _damage_per_hit(data, target):
+def _splash(data, block: PairBlock):
+    """float32[R, C]: the damage a burst of each row unit deals to each column unit (0
+    where the column is not an enemy within the row's `burst` radius of its centre)."""
+    reach = block.enemy & (block.dist - data.radius[None, block.cols]
+                           <= data.burst[block.rows, None])
+    columns = jnp.broadcast_to(jnp.arange(block.cols.start, block.cols.stop),
+                               block.dist.shape)
+    return jnp.where(reach, _damage_per_hit(_slice(data, block.rows), columns, data), 0.0)
+
+
+def _called(units: Units, data, block: PairBlock, fires, target, attacker):
+    """int32[R]: for each row unit, the attacker of an ally within its acquisition range
+    that was hit this loop (the highest such attacker's slot), or -1.
+
+    The allies hit are the targets of the column units that fire: a unit's target is
+    an enemy, so a row unit's hit allies are targets of units in its block's columns.
+
+    Args:
+      fires: bool[N] units that fire this loop; target: int32[N] their targets.
+      attacker: int32[N] the highest slot that fires at each unit, or -1.
+    """
+    rows = jnp.arange(units.num_slots)[block.rows]
+    hit = target[block.cols]  # [C]
+    diff = units.pos[block.rows, None, :] - units.pos[hit][None, :, :]
+    gap = (jnp.sqrt(squared_length(diff) + 1e-12) - data.radius[block.rows, None]
+           - data.radius[hit][None, :])
+    ally = ((units.owner[block.rows, None] == units.owner[hit][None, :])
+            & units.alive[block.rows, None] & units.alive[hit][None, :]
+            & (rows[:, None] != hit[None, :]))
+    calls = fires[None, block.cols] & ally & (gap <= data.acquire[block.rows, None])
+    return jnp.max(jnp.where(calls, attacker[hit][None, :], -1), axis=1)
+
+
+def _damage_per_hit(data, target, target_data=None):
     """The damage one attack of unit i deals to the slots `target[i]`: damage, plus the
     bonus against Light targets, minus armour, and at least 0.5 (the game's minimum).
 
     Args:
-      data: per-unit stats of the N attackers.
-      target: int32[N] (one target each) or int32[N, M] target slots.
+      data: per-unit stats of the R attackers.
+      target: int32[R] (one target each) or int32[R, M] target slots.
+      target_data: the stats of the slots `target` indexes (default `data`).
 
     Returns:
       float32 of `target`'s shape.
     """
+    target_data = data if target_data is None else target_data
     own = lambda x: x.reshape(x.shape + (1,) * (target.ndim - 1))  # noqa: E731
-    light = (data.attributes[target] & Attribute.LIGHT) > 0
+    light = (target_data.attributes[target] & Attribute.LIGHT) > 0
     return jnp.maximum(own(data.damage) + jnp.where(light, own(data.bonus_light), 0.0)
-                       - data.armor[target], 0.5)
+                       - target_data.armor[target], 0.5)
 
 
 def _complete_orders(units: Units, old_pos, step, goal_dist, has_target, moving) -> Units:

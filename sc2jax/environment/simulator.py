@@ -209,7 +209,8 @@ class Simulator:
                                       bursts=game.has_bursts, workers=game.has_workers,
                                       combat=game.has_enemies,
                                       colliders=game.collider_slots,
-                                      field_slots=game.field_slots)
+                                      field_slots=game.field_slots,
+                                      team_split=game.team_split)
             minerals = state.minerals + events.minerals.astype(jnp.int32)
             next_tag, spent = state.next_tag, jnp.int32(0)
             if game.has_production:

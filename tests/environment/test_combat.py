@@ -14,12 +14,13 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 
+from sc2jax.environment.agents import random_action
 from sc2jax.environment.dynamics import LoopEvents, game_loop
 from sc2jax.environment.minigames import get_map
 from sc2jax.environment.minigames.wave_combat import LEFT, MARINE_SLOTS, RIGHT, lineup_offset
 from sc2jax.environment.state import Order, Outcome, Owner
 
-from .conftest import small_sim
+from .conftest import PARAMS, compiled, small_sim
 from .test_mechanics import make_units, with_orders
 
 SLOTS = 8
@@ -119,6 +120,59 @@ def test_idle_units_answer_an_attack_on_an_ally_within_their_acquisition_range()
     after, _ = run(after, 8)
     assert float(after.pos[2, 0]) < 34.0 and float(after.pos[3, 0]) == pytest.approx(36.6)
     assert int(after.target[3]) == -1
+
+
+def test_combat_across_a_team_split_is_combat_over_all_pairs():
+    # Marines in slots 0-3, Zerg in 4-7: with `team_split=4` the loop looks only at the
+    # pairs across the split, and every loop of a brawl (acquisition, chases, bursts,
+    # idle units answering attacks on allies, deaths) must come out bit for bit as over
+    # all [N, N] pairs.
+    split_loop = jax.jit(functools.partial(game_loop, playable=PLAYABLE, bursts=True,
+                                           team_split=4))
+    rng = np.random.default_rng(0)
+    for trial in range(3):
+        xy = [tuple(p) for p in rng.uniform((27.0, 25.0), (35.0, 31.0), (8, 2))]
+        units = units_of([(i, M, SELF, xy[i]) for i in range(4)]
+                         + [(4, Z, ENEMY, xy[4]), (5, B, ENEMY, xy[5]),
+                            (6, R, ENEMY, xy[6]), (7, Z, ENEMY, xy[7])],
+                         [(0, Order.ATTACK_MOVE, None, (40.0, 28.0)),
+                          (1, Order.HOLD, None, xy[1]), (2, Order.ATTACK_UNIT, 6, xy[6]),
+                          (5, Order.ATTACK_UNIT, 3, xy[3])])
+        whole, split, key = units, units, jax.random.PRNGKey(trial)
+        for _ in range(60):
+            key, k = jax.random.split(key)
+            whole, whole_events = _LOOP(whole, k)
+            split, split_events = split_loop(split, k)
+            for a, b in zip(jax.tree_util.tree_leaves((whole, whole_events)),
+                            jax.tree_util.tree_leaves((split, split_events))):
+                np.testing.assert_array_equal(np.asarray(a), np.asarray(b))
+        assert int(whole.alive.sum()) < 8  # The brawl killed someone.
+
+
+@pytest.mark.parametrize("name", ["FindAndDefeatZerglings", "DefeatRoaches",
+                                  "DefeatZerglingsAndBanelings"])
+def test_each_side_stays_on_its_side_of_the_team_split(name):
+    # The maps that declare `team_split` keep the player's units before it and the
+    # enemy's after it, through play and a respawn or wave reset (every enemy killed at
+    # step 6).
+    sim = small_sim(name)
+    split = sim.game.team_split
+    reset, step = compiled(sim)
+    state, ts = reset(jax.random.PRNGKey(2), PARAMS)
+    act = jax.jit(functools.partial(random_action, types=sim.fmt.types))
+    key, states = jax.random.PRNGKey(3), [state]
+    for i in range(12):
+        if i == 6:
+            state = state.replace(units=state.units.replace(
+                alive=state.units.alive & (state.units.owner != ENEMY)))
+        key, k = jax.random.split(key)
+        state, ts = step(state, act(k, ts.observation["available_actions"]), PARAMS)
+        states.append(state)
+    assert bool((states[7].units.alive & (states[7].units.owner == ENEMY)).any())
+    for s in states:
+        alive, owner = np.asarray(s.units.alive), np.asarray(s.units.owner)
+        assert not (alive[split:] & (owner[split:] == SELF)).any()
+        assert not (alive[:split] & (owner[:split] == ENEMY)).any()
 
 
 @functools.cache

@@ -62,6 +62,9 @@ class MiniGame:
       field_slots: None where any slot can hold a mineral field; else mineral fields are
         only ever in the first `field_slots` slots (none is ever created), and
         workers look for free fields among those alone.
+      team_split: None where any slot can hold a unit of either side; else the player's
+        units are only ever in the first `team_split` slots and the enemy's only in
+        the rest, and combat looks at the pairs across the split alone.
     """
 
     name: str
@@ -76,6 +79,7 @@ class MiniGame:
     collider_slots: int | None = None
     own_slots: int | None = None
     field_slots: int | None = None
+    team_split: int | None = None
 
     def init(self, key) -> tuple[Units, Any, jax.Array]:
         """Returns the starting units, the script's state, and the next unit tag."""

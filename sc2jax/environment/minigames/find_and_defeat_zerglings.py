@@ -113,7 +113,7 @@ class FindAndDefeatZerglings(MiniGame):
                          num_slots=NUM_MARINES + NUM_ZERGLINGS,
                          geometry=flat_geometry(REGION_1), fog=True, camera=(32.0, 25.0),
                          unit_types=(UnitType.MARINE, UnitType.ZERGLING),
-                         own_slots=NUM_MARINES)
+                         own_slots=NUM_MARINES, team_split=NUM_MARINES)
 
     def init(self, key):
         units = Units.empty(self.num_slots)

@@ -92,7 +92,8 @@ class WaveCombat(MiniGame):
     def __init__(self, name):
         super().__init__(name=name, time_limit=120, num_slots=MARINE_SLOTS + len(self.ENEMIES),
                          geometry=flat_geometry(REGION_1), fog=False, camera=CAMERA,
-                         unit_types=(UnitType.MARINE,) + tuple(sorted(set(self.ENEMIES))))
+                         unit_types=(UnitType.MARINE,) + tuple(sorted(set(self.ENEMIES))),
+                         team_split=MARINE_SLOTS)
 
     @property
     def enemy_slots(self) -> jax.Array:
