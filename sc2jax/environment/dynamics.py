@@ -21,7 +21,7 @@ import jax
 import jax.numpy as jnp
 
 from sc2jax.environment import harvest
-from sc2jax.environment.geometry import squared_length
+from sc2jax.environment.geometry import distances, squared_length
 from sc2jax.environment.state import NO_TARGET, Order, Owner, Units, leading_slots
 from sc2jax.environment.units import UNIT_DATA, Attribute
 
@@ -110,8 +110,7 @@ def pair_blocks(units: Units, data, team_split: int | None) -> list[PairBlock]:
                  (slice(team_split, n), slice(0, team_split))]
     blocks = []
     for rows, cols in spans:
-        diff = units.pos[rows, None, :] - units.pos[None, cols, :]
-        dist = jnp.sqrt(squared_length(diff) + 1e-12)
+        dist = distances(units.pos[rows], units.pos[cols])
         gap = dist - data.radius[rows, None] - data.radius[None, cols]
         enemy = (hostile(units.owner[rows], units.owner[cols]) & units.alive[rows, None]
                  & units.alive[None, cols])
@@ -375,8 +374,7 @@ def _called(units: Units, data, block: PairBlock, fires, target, attacker):
     """
     rows = jnp.arange(units.num_slots)[block.rows]
     hit = target[block.cols]  # [C]
-    diff = units.pos[block.rows, None, :] - units.pos[hit][None, :, :]
-    gap = (jnp.sqrt(squared_length(diff) + 1e-12) - data.radius[block.rows, None]
+    gap = (distances(units.pos[block.rows], units.pos[hit]) - data.radius[block.rows, None]
            - data.radius[hit][None, :])
     ally = ((units.owner[block.rows, None] == units.owner[hit][None, :])
             & units.alive[block.rows, None] & units.alive[hit][None, :]

@@ -61,6 +61,12 @@ def squared_length(v):
     return v[..., 0] * v[..., 0] + v[..., 1] * v[..., 1]
 
 
+def distances(pos, to, eps=1e-12):
+    """float32[N, M]: centre distances sqrt(|pos[i] - to[j]|² + eps) (pos float32[N, 2],
+    to float32[M, 2]): the engine's pair distance."""
+    return jnp.sqrt(squared_length(pos[:, None, :] - to[None, :, :]) + eps)
+
+
 def _stack_xy(px, py):
     return array_module(px, py).stack([px, py], axis=-1)
 

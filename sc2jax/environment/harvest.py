@@ -27,7 +27,7 @@ from __future__ import annotations
 
 import jax.numpy as jnp
 
-from sc2jax.environment.geometry import squared_length
+from sc2jax.environment.geometry import distances
 from sc2jax.environment.lazy import lazy_where
 from sc2jax.environment.state import NO_TARGET, Order, Units, leading_slots
 from sc2jax.environment.units import LOOPS_PER_SECOND, UnitType
@@ -61,12 +61,6 @@ def working(units: Units):
 DEPOT_SLOTS = 4
 """Command Centers `nearest_depot` measures to directly; an environment with more (the
 player built them) measures to every slot."""
-
-
-def distances(pos, to, eps=1e-12):
-    """float32[N, M]: centre distances sqrt(|pos[i] - to[j]|² + eps) (pos float32[N, 2],
-    to float32[M, 2]): the engine's pair distance, for a few columns."""
-    return jnp.sqrt(squared_length(pos[:, None, :] - to[None, :, :]) + eps)
 
 
 def nearest_depot(units: Units, eps=1e-12):
