@@ -90,11 +90,15 @@ class PairBlock(NamedTuple):
     gap: jax.Array
     enemy: jax.Array
 
+    def column(self, slots):
+        """int32[R]: the column of each row's slot in `slots` (int32[R]), clipped into
+        `cols` (rows with a slot outside `cols` get another column)."""
+        return jnp.clip(slots - self.cols.start, 0, self.gap.shape[1] - 1)
+
     def at(self, slots):
         """float32[R]: each row's gap to its slot in `slots` (int32[R] in `cols`; rows
         with a slot outside `cols` get another column's gap)."""
-        local = jnp.clip(slots - self.cols.start, 0, self.gap.shape[1] - 1)
-        return self.gap[jnp.arange(self.gap.shape[0]), local]
+        return self.gap[jnp.arange(self.gap.shape[0]), self.column(slots)]
 
 
 def pair_blocks(units: Units, data, team_split: int | None) -> list[PairBlock]:
@@ -155,7 +159,7 @@ def _select_targets(units: Units, data, block: PairBlock):
     keep_range = jnp.where(order == Order.HOLD, data.range, data.sight)
     current = units.target
     first, num_cols = block.cols.start, gap.shape[1]
-    local = jnp.clip(current - first, 0, num_cols - 1)
+    local = block.column(current)
     rows = jnp.arange(gap.shape[0])
     current_gap = gap[rows, local]
     other_in_range = (enemy & (gap <= data.range[:, None])).any(axis=1)
