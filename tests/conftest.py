@@ -12,6 +12,8 @@
   ~40% off (8 map steps: 50 s -> 30 s of compiling; the suite: 466 s -> 337 s on a 2-core
   AMD EPYC VM). The programs compute the same operations (no fast-math either way), only
   slower, which costs the few long-running tests less than it saves.
+- Two host devices on the CPU, so that the tests of `sc2jax.environment.devices` can split
+  environments over them; every other program runs on the first, as with one.
 """
 
 import os
@@ -22,6 +24,8 @@ os.environ.setdefault(
     "XLA_FLAGS", "--xla_backend_optimization_level=0 --xla_cpu_use_fusion_emitters=false")
 
 import jax  # noqa: E402  (after XLA_FLAGS)
+
+jax.config.update("jax_num_cpu_devices", 2)  # Before any test starts the backend.
 
 _ENV = "SC2JAX_TEST_COMPILATION_CACHE"
 

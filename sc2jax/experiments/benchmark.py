@@ -4,10 +4,13 @@ Every step renders the whole observation (all screen and minimap layers and ever
 non-spatial observation) and the random agent (SC2LE §4.4) picks its next action from the
 last observation's `available_actions`. The measured program is one jitted function that
 `lax.scan`s K steps of (random action -> vmapped `Simulator.step`) for `num_envs`
-environments; compilation is excluded (two warm-up calls), each call is timed to
+environments, each with its own random key, split over D devices (`--devices`: each
+device scans its num_envs / D environments, `sc2jax.environment.devices`; on a CPU, one
+host device per core); compilation is excluded (two warm-up calls), each call is timed to
 `block_until_ready`, and the median of the repeats is reported. The programs of one
-environment count (every map, and SMAX) are timed round-robin, one call each per round,
-so a machine whose speed drifts during the run moves them alike and their ratios hold.
+environment count (every map and device count, and SMAX) are timed round-robin, one call
+each per round, so a machine whose speed drifts during the run moves them alike and their
+ratios hold.
 
 Optionally (`--smax`), JaxMARL's SMAX (an optional, benchmark-only dependency:
 `pip install jaxmarl`) is measured the same way on its "3m" scenario, with random
@@ -21,6 +24,7 @@ available actions for the three allied marines against its heuristic enemy.
 from __future__ import annotations
 
 import datetime
+import os
 import statistics
 import time
 from collections.abc import Callable, Sequence
@@ -32,8 +36,9 @@ from absl import app, flags, logging
 
 from sc2jax.environment import MAPS, ObservationFormat, Simulator
 from sc2jax.environment.agents.random_agent import random_action
+from sc2jax.environment.devices import over_devices
 from sc2jax.environment.minigames import check_map
-from sc2jax.experiments.checks import positive_ints
+from sc2jax.experiments.checks import non_negative_ints, positive_ints
 from sc2jax.experiments.machine import machine
 from sc2jax.experiments.markdown import write_section
 
@@ -46,6 +51,9 @@ flags.DEFINE_integer("step_mul", 8, "Game loops per agent step.")
 flags.DEFINE_integer("steps", 0, "Agent steps per timed call (K); 0 picks "
                      "max(16, min(2048, 8192 // num_envs)).")
 flags.DEFINE_integer("repeats", 3, "Timed calls per measurement (the median is reported).")
+flags.DEFINE_list("devices", ["1", "0"], "Device counts to split the environments over, each "
+                  "timed (0: every local device; on a CPU, one host device per core). An "
+                  "environment count that a device count does not divide runs on one device.")
 flags.DEFINE_bool("smax", True, "Also measure JaxMARL's SMAX 3m (skipped if not installed).")
 flags.DEFINE_string("output", None, "Markdown file to write the results section into.")
 
@@ -59,6 +67,7 @@ class Result(NamedTuple):
     Attributes:
       name: what was measured (a map name, or "SMAX-3m").
       num_envs: environments stepped together.
+      devices: the devices they were split over.
       steps: agent steps per environment per timed call.
       seconds: the median wall time of one call.
       step_mul: game loops per agent step.
@@ -66,6 +75,7 @@ class Result(NamedTuple):
 
     name: str
     num_envs: int
+    devices: int
     steps: int
     seconds: float
     step_mul: int
@@ -86,10 +96,11 @@ def steps_per_call(num_envs: int, steps: int = 0) -> int:
 
 class Program(NamedTuple):
     """A compiled rollout to time: `rollout(carry) -> carry` runs `steps` agent steps of
-    `num_envs` environments."""
+    `num_envs` environments split over `devices` devices."""
 
     name: str
     num_envs: int
+    devices: int
     steps: int
     step_mul: int
     rollout: Callable
@@ -112,46 +123,63 @@ def time_round_robin(programs: Sequence[Program], repeats: int) -> list[Result]:
             start = time.perf_counter()
             carries[i] = jax.block_until_ready(p.rollout(carries[i]))
             times[i].append(time.perf_counter() - start)
-    return [Result(p.name, p.num_envs, p.steps, statistics.median(t), p.step_mul)
+    return [Result(p.name, p.num_envs, p.devices, p.steps, statistics.median(t), p.step_mul)
             for p, t in zip(programs, times)]
 
 
-def sc2jax_rollout(sim: Simulator, num_envs: int, steps: int):
+def split_keys(keys, num: int):
+    """`num` keys [num, B, 2] from each of B keys [B, 2] (one split per environment)."""
+    return jax.vmap(lambda key: jax.random.split(key, num), out_axes=1)(keys)
+
+
+def compiled_rollout(one_step: Callable, steps: int, devices: Sequence[jax.Device]):
+    """jit(`lax.scan` of `steps` calls of `one_step`), the carry's environments split over
+    `devices` (every leaf of the carry has the environment axis first)."""
+    def rollout(carry):
+        return jax.lax.scan(one_step, carry, None, length=steps)[0]
+
+    return jax.jit(over_devices(rollout, devices))
+
+
+def sc2jax_rollout(sim: Simulator, num_envs: int, steps: int,
+                   devices: Sequence[jax.Device] | None = None):
     """Builds a compiled random-policy rollout of `num_envs` environments.
+
+    Args:
+      devices: the devices to split the environments over (None: the default device).
 
     Returns:
       (rollout, carry): `rollout(carry) -> carry` runs `steps` agent steps; the carry is
-      (states [B, ...], the last timesteps [B, ...] with their full observations, key).
+      (states [B, ...], the last timesteps [B, ...] with their full observations, the
+      random agent's keys [B, 2]).
     """
     types = sim.fmt.types
     act = jax.vmap(random_action, in_axes=(0, 0, None))
     step = jax.vmap(sim.step)
 
     def one_step(carry, _):
-        state, timestep, key = carry
-        key, action_key = jax.random.split(key)
-        action = act(jax.random.split(action_key, num_envs),
-                     timestep.observation["available_actions"], types)
+        state, timestep, keys = carry
+        keys, action_keys = split_keys(keys, 2)
+        action = act(action_keys, timestep.observation["available_actions"], types)
         state, timestep = step(state, action)
-        return (state, timestep, key), None
-
-    @jax.jit
-    def rollout(carry):
-        return jax.lax.scan(one_step, carry, None, length=steps)[0]
+        return (state, timestep, keys), None
 
     key, reset_key = jax.random.split(jax.random.PRNGKey(0))
     state, timestep = jax.jit(jax.vmap(sim.reset))(jax.random.split(reset_key, num_envs))
-    return rollout, (state, timestep, key)
+    return (compiled_rollout(one_step, steps, devices or jax.devices()[:1]),
+            (state, timestep, jax.random.split(key, num_envs)))
 
 
 def sc2jax_program(map_name: str, num_envs: int, fmt: ObservationFormat, step_mul: int,
-                   steps: int) -> Program:
-    """One mini-game's rollout at one environment count."""
+                   steps: int, devices: Sequence[jax.Device]) -> Program:
+    """One mini-game's rollout at one environment count, split over `devices`."""
     sim = Simulator(map_name=map_name, fmt=fmt, step_mul=step_mul)
-    return Program(map_name, num_envs, steps, step_mul, *sc2jax_rollout(sim, num_envs, steps))
+    return Program(map_name, num_envs, len(devices), steps, step_mul,
+                   *sc2jax_rollout(sim, num_envs, steps, devices))
 
 
-def smax_rollout(num_envs: int, steps: int, step_mul: int):
+def smax_rollout(num_envs: int, steps: int, step_mul: int,
+                 devices: Sequence[jax.Device] | None = None):
     """Builds SMAX-3m's compiled random-policy rollout, as `sc2jax_rollout`.
 
     Raises:
@@ -172,45 +200,71 @@ def smax_rollout(num_envs: int, steps: int, step_mul: int):
     step = jax.vmap(env.step)
 
     def one_step(carry, _):
-        state, obs, key = carry
-        key, action_key, step_key = jax.random.split(key, 3)
-        actions = jax.vmap(act_one)(jax.random.split(action_key, num_envs), state)
-        obs, state, _, _, _ = step(jax.random.split(step_key, num_envs), state, actions)
-        return (state, obs, key), None
-
-    @jax.jit
-    def rollout(carry):
-        return jax.lax.scan(one_step, carry, None, length=steps)[0]
+        state, obs, keys = carry
+        keys, action_keys, step_keys = split_keys(keys, 3)
+        actions = jax.vmap(act_one)(action_keys, state)
+        obs, state, _, _, _ = step(step_keys, state, actions)
+        return (state, obs, keys), None
 
     key, reset_key = jax.random.split(jax.random.PRNGKey(0))
     obs, state = jax.jit(jax.vmap(env.reset))(jax.random.split(reset_key, num_envs))
-    return rollout, (state, obs, key)
+    return (compiled_rollout(one_step, steps, devices or jax.devices()[:1]),
+            (state, obs, jax.random.split(key, num_envs)))
 
 
-def smax_program(num_envs: int, step_mul: int, steps: int) -> Program:
+def smax_program(num_envs: int, step_mul: int, steps: int,
+                 devices: Sequence[jax.Device]) -> Program:
     """SMAX-3m's rollout at one environment count (ImportError without jaxmarl)."""
-    return Program(f"SMAX-{SMAX_SCENARIO}", num_envs, steps, step_mul,
-                   *smax_rollout(num_envs, steps, step_mul))
+    return Program(f"SMAX-{SMAX_SCENARIO}", num_envs, len(devices), steps, step_mul,
+                   *smax_rollout(num_envs, steps, step_mul, devices))
 
 
-def markdown(results: Sequence[Result], smax: dict[int, Result], command: str,
+def device_sets(num_envs: int, counts: Sequence[int]) -> list[list[jax.Device]]:
+    """The local devices to split `num_envs` environments over, one list per device count
+    in `counts` (0: every local device); a count that does not divide `num_envs` becomes
+    one device. Duplicates are dropped.
+
+    Raises:
+      ValueError: a count is more than the local devices.
+    """
+    local = jax.local_devices()
+    sets = []
+    for count in counts:
+        count = count or len(local)
+        if count > len(local):
+            raise ValueError(f"--devices asks for {count} devices, but this process has "
+                             f"{len(local)} ({local[0].platform}); allowed: 0..{len(local)}")
+        chosen = local[:count] if num_envs % count == 0 else local[:1]
+        if chosen not in sets:
+            sets.append(chosen)
+    return sets
+
+
+def configure_cpu_devices(counts: Sequence[int]) -> None:
+    """Gives the CPU platform one host device per core (or the largest of `counts`, if
+    more). Call before JAX starts its backends; it changes nothing on an accelerator,
+    whose devices are the local devices."""
+    jax.config.update("jax_num_cpu_devices", max([os.cpu_count() or 1, *counts]))
+
+
+def markdown(results: Sequence[Result], smax: dict[tuple[int, int], Result], command: str,
              before: str, after: str, note: str) -> str:
     """The results section, as markdown."""
     lines = [SECTION, "", f"Command: `{command}`", "",
              f"- Date: {datetime.datetime.now().strftime('%Y-%m-%d %H:%M')}",
              f"- Machine before the run: {before}",
              f"- Load after the run: {after}", ""]
-    header = "| Map | Envs | K | Agent steps/s | Game steps/s |"
-    rule = "|---|---:|---:|---:|---:|"
+    header = "| Map | Envs | Devices | K | Agent steps/s | Game steps/s |"
+    rule = "|---|---:|---:|---:|---:|---:|"
     if smax:
         header += " × SMAX-3m |"
         rule += "---:|"
     lines += [header, rule]
     for r in list(results) + list(smax.values()):
-        row = (f"| {r.name} | {r.num_envs} | {r.steps} | {r.agent_steps_per_second:,.0f} | "
-               f"{r.game_steps_per_second:,.0f} |")
+        row = (f"| {r.name} | {r.num_envs} | {r.devices} | {r.steps} | "
+               f"{r.agent_steps_per_second:,.0f} | {r.game_steps_per_second:,.0f} |")
         if smax:
-            base = smax.get(r.num_envs)
+            base = smax.get((r.num_envs, r.devices))
             ratio = r.agent_steps_per_second / base.agent_steps_per_second if base else None
             row += f" {ratio:.2f} |" if ratio is not None else " – |"
         lines.append(row)
@@ -229,6 +283,8 @@ def main(argv: Sequence[str]) -> None:
     if FLAGS.repeats < 1 or FLAGS.steps < 0:
         raise ValueError(f"--repeats must be >= 1 and --steps >= 0, got {FLAGS.repeats} "
                          f"and {FLAGS.steps}")
+    device_counts = non_negative_ints("devices", FLAGS.devices)
+    configure_cpu_devices(device_counts)  # Before `machine()` starts the backend.
     fmt = ObservationFormat(screen_size=FLAGS.screen_size, minimap_size=FLAGS.minimap_size)
     before = machine()
     logging.info("Machine: %s", before)
@@ -243,21 +299,26 @@ def main(argv: Sequence[str]) -> None:
     results, smax = [], {}
     for n in counts:
         steps = steps_per_call(n, FLAGS.steps)
-        programs = [sc2jax_program(name, n, fmt, FLAGS.step_mul, steps) for name in FLAGS.maps]
-        if with_smax:
-            programs.append(smax_program(n, FLAGS.step_mul, steps))
+        programs = []
+        for devices in device_sets(n, device_counts):
+            programs += [sc2jax_program(name, n, fmt, FLAGS.step_mul, steps, devices)
+                         for name in FLAGS.maps]
+            if with_smax:
+                programs.append(smax_program(n, FLAGS.step_mul, steps, devices))
         for r in time_round_robin(programs, FLAGS.repeats):
-            logging.info("%s x%d: %.0f agent steps/s, %.0f game steps/s", r.name, n,
-                         r.agent_steps_per_second, r.game_steps_per_second)
+            logging.info("%s x%d on %d devices: %.0f agent steps/s, %.0f game steps/s", r.name,
+                         n, r.devices, r.agent_steps_per_second, r.game_steps_per_second)
             if r.name.startswith("SMAX"):
-                smax[n] = r
+                smax[n, r.devices] = r
             else:
                 results.append(r)
         del programs  # Frees this count's buffers before the next.
-    results.sort(key=lambda r: (FLAGS.maps.index(r.name), counts.index(r.num_envs)))
+    results.sort(key=lambda r: (FLAGS.maps.index(r.name), counts.index(r.num_envs),
+                                r.devices))
     command = "python -m sc2jax.experiments.benchmark " + " ".join(
         f"--{k}={v}" for k, v in (
             ("maps", ",".join(FLAGS.maps)), ("num_envs", ",".join(FLAGS.num_envs)),
+            ("devices", ",".join(FLAGS.devices)),
             ("screen_size", FLAGS.screen_size), ("minimap_size", FLAGS.minimap_size),
             ("step_mul", FLAGS.step_mul), ("steps", FLAGS.steps), ("repeats", FLAGS.repeats),
             ("smax", FLAGS.smax)))

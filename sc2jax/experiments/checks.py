@@ -17,12 +17,21 @@ def check_non_negative_int(name: str, value: object) -> None:
 
 def positive_ints(name: str, values) -> list[int]:
     """A list flag's strings as positive ints; raises ValueError naming `name` otherwise."""
+    return _ints(name, values, 1, "positive integers")
+
+
+def non_negative_ints(name: str, values) -> list[int]:
+    """A list flag's strings as ints >= 0; raises ValueError naming `name` otherwise."""
+    return _ints(name, values, 0, "integers >= 0")
+
+
+def _ints(name: str, values, low: int, allowed: str) -> list[int]:
     try:
         out = [int(v) for v in values]
     except ValueError:
         out = []
-    if not out or any(v < 1 for v in out):
-        raise ValueError(f"--{name} must be a comma-separated list of positive integers, "
+    if not out or any(v < low for v in out):
+        raise ValueError(f"--{name} must be a comma-separated list of {allowed}, "
                          f"got {','.join(map(str, values))!r}")
     return out
 

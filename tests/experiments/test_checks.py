@@ -4,7 +4,12 @@ from __future__ import annotations
 
 import pytest
 
-from sc2jax.experiments.checks import check_known, check_positive_int, positive_ints
+from sc2jax.experiments.checks import (
+    check_known,
+    check_positive_int,
+    non_negative_ints,
+    positive_ints,
+)
 
 
 def test_positive_ints_parses_a_list_flag():
@@ -15,6 +20,12 @@ def test_positive_ints_parses_a_list_flag():
 def test_positive_ints_names_the_flag_and_the_bad_value(values):
     with pytest.raises(ValueError, match="--sizes must be a comma-separated list of positive"):
         positive_ints("sizes", values)
+
+
+def test_non_negative_ints_allow_zero_and_name_the_bad_value():
+    assert non_negative_ints("devices", ["1", "0"]) == [1, 0]
+    with pytest.raises(ValueError, match=r"--devices must be .* integers >= 0, got '1,-1'"):
+        non_negative_ints("devices", ["1", "-1"])
 
 
 @pytest.mark.parametrize("value", [0, -1, True, 2.0, "3"])

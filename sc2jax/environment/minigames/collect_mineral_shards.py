@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import jax
 import jax.numpy as jnp
+import numpy as np
 
 from sc2jax.environment.lazy import lazy_where
 from sc2jax.environment.minigames.base import (
@@ -28,8 +29,8 @@ REGION_3 = (23.0, 21.0, 43.0, 35.0)
 NUM_SHARDS = 20
 MIN_SHARD_DISTANCE = 2.0
 MINERALS_PER_SHARD = 100
-MARINES = jnp.arange(2)
-SHARDS = jnp.arange(2, 2 + NUM_SHARDS)
+MARINES = np.arange(2)
+SHARDS = np.arange(2, 2 + NUM_SHARDS)
 PICKUP_DISTANCE = float(UNIT_DATA.radius[UnitType.MARINE] + UNIT_DATA.radius[
     UnitType.MINERAL_SHARD])
 

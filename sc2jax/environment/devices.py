@@ -1,0 +1,76 @@
+"""Environments split over devices: each device steps its share of a batch.
+
+A batched function of environments that never exchange data (`jax.vmap(sim.step)`, or a
+rollout that scans it with a key per environment) runs unchanged on a slice of the batch.
+`over_devices` gives each device B / D of the B environments, so the devices step at the
+same time.
+
+On a CPU this is what uses its cores. An agent step of the simulator is about a
+thousand small kernels that run one after another, mostly on one thread, so one device
+leaves the other cores idle; JAX makes one host device per core when asked before its
+backend starts (`jax.config.update("jax_num_cpu_devices", n)`, as
+`python -m sc2jax.experiments.benchmark --devices` does). On an accelerator the devices
+are the local GPUs or TPUs.
+
+    step = jax.jit(over_devices(jax.vmap(sim.step)))
+    states, timesteps = step(states, actions)  # every leaf [B, ...], B a multiple of D
+
+Each environment's arithmetic is the same wherever it runs, but XLA compiles the program
+for B / D environments, and its fusion choices for another shape can round differently.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Sequence
+
+import jax
+import numpy as np
+from jax.sharding import Mesh, PartitionSpec
+
+AXIS = "envs"
+"""The mesh axis the environments are split along."""
+
+
+def over_devices(batched_fn: Callable, devices: Sequence[jax.Device] | None = None) -> Callable:
+    """`batched_fn` with the leading (environment) axis of its arguments and results split
+    evenly over `devices`.
+
+    Args:
+      batched_fn: maps pytrees whose every leaf is [B, ...] to pytrees whose every leaf is
+        [B, ...], environment b of the results depending only on environment b of the
+        arguments (so each device can compute its own slice).
+      devices: the devices, in order; None for `jax.local_devices()`. With one device,
+        `batched_fn` is returned unchanged.
+
+    Returns:
+      A function of the same arguments. It raises ValueError, before any computation, if
+      a leaf has no leading axis or its B is not a multiple of the number of devices.
+      Its results are sharded over the devices along the environment axis, so a later
+      call takes them without a transfer; jit it to compile once.
+
+    Raises:
+      ValueError: `devices` is empty.
+    """
+    devices = list(jax.local_devices() if devices is None else devices)
+    if not devices:
+        raise ValueError("devices must name at least one device, got none")
+    if len(devices) == 1:
+        return batched_fn
+    mesh = Mesh(np.asarray(devices), (AXIS,))
+    # check_vma=False: the simulator's lazy branches (`lax.cond`) mix values that differ per
+    # device with constants, which is sound here (nothing is exchanged between devices)
+    # but fails shard_map's type check.
+    split = jax.shard_map(batched_fn, mesh=mesh, in_specs=PartitionSpec(AXIS),
+                          out_specs=PartitionSpec(AXIS), check_vma=False)
+
+    def run(*args):
+        for path, leaf in jax.tree_util.tree_leaves_with_path(args):
+            shape = np.shape(leaf)
+            if not shape or shape[0] % len(devices):
+                raise ValueError(
+                    f"over {len(devices)} devices every argument needs a leading environment "
+                    f"axis that is a multiple of {len(devices)}; argument "
+                    f"{jax.tree_util.keystr(path)} has shape {shape}")
+        return split(*args)
+
+    return run

@@ -1,0 +1,61 @@
+"""`over_devices`: environments split over the two host devices that tests/conftest.py makes."""
+
+import jax
+import numpy as np
+import pytest
+
+from sc2jax.environment.agents import random_action
+from sc2jax.environment.devices import over_devices
+from tests.environment.conftest import small_sim
+
+NUM_ENVS = 4
+
+
+def _play(fn, steps: int = 3):
+    """Random play of `fn` (batched (states, actions) -> (states, timesteps)) from NUM_ENVS
+    distinct resets; returns the last (states, timesteps) as numpy."""
+    sim = small_sim("MoveToBeacon")
+    state, ts = jax.jit(jax.vmap(sim.reset))(jax.random.split(jax.random.PRNGKey(3), NUM_ENVS))
+    act = jax.jit(jax.vmap(random_action, in_axes=(0, 0, None)), static_argnums=2)
+    step = jax.jit(fn(jax.vmap(sim.step)))
+    for i in range(steps):
+        keys = jax.random.split(jax.random.PRNGKey(i), NUM_ENVS)
+        state, ts = step(state, act(keys, ts.observation["available_actions"], sim.fmt.types))
+    return state, ts
+
+
+def test_two_devices_step_each_environment_as_one_device_does():
+    devices = jax.devices()
+    assert len(devices) >= 2, "tests/conftest.py gives the CPU two host devices"
+    one = jax.device_get(_play(lambda f: over_devices(f, devices[:1])))
+    two = _play(lambda f: over_devices(f, devices[:2]))
+    # The results stay split: each device holds its half of the environments.
+    placed = two[0].units.pos.sharding
+    assert placed.device_set == set(devices[:2])
+    assert {s.data.shape[0] for s in two[0].units.pos.addressable_shards} == {NUM_ENVS // 2}
+    two = jax.device_get(two)
+    for (path, a), b in zip(jax.tree_util.tree_leaves_with_path(one), jax.tree.leaves(two)):
+        if np.issubdtype(a.dtype, np.floating):
+            # XLA compiles the halves' program for 2 environments, whose fusions can round
+            # differently.
+            np.testing.assert_allclose(a, b, atol=1e-4, err_msg=jax.tree_util.keystr(path))
+        else:
+            np.testing.assert_array_equal(a, b, err_msg=jax.tree_util.keystr(path))
+    # The environments differ from one another, so a mix-up of halves would show.
+    assert len({tuple(p.ravel()) for p in one[0].units.pos}) == NUM_ENVS
+
+
+def test_one_device_returns_the_function_itself():
+    def fn(x):
+        return x
+    assert over_devices(fn, jax.devices()[:1]) is fn
+
+
+def test_bad_batches_are_refused_before_any_computation():
+    split = over_devices(lambda tree: tree, jax.devices()[:2])
+    with pytest.raises(ValueError, match=r"multiple of 2.*\['b'\] has shape \(3, 5\)"):
+        split({"a": np.zeros((4, 5)), "b": np.zeros((3, 5))})
+    with pytest.raises(ValueError, match=r"shape \(\)"):
+        split(np.float32(1.0))
+    with pytest.raises(ValueError, match="at least one device"):
+        over_devices(lambda tree: tree, [])
