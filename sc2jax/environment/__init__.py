@@ -13,6 +13,7 @@ from sc2jax.environment.arguments import (
     resolve_types,
 )
 from sc2jax.environment.dense import DenseAction, check_dense_action, from_dense, to_dense
+from sc2jax.environment.devices import over_devices
 from sc2jax.environment.environments import BatchedSC2Env, SC2Env, make, to_pysc2_layout
 from sc2jax.environment.features import (
     MINIMAP_FEATURES,
