@@ -9,8 +9,8 @@ On a CPU this is what uses its cores. An agent step of the simulator is about a
 thousand small kernels that run one after another, mostly on one thread, so one device
 leaves the other cores idle; JAX makes one host device per core when asked before its
 backend starts (`jax.config.update("jax_num_cpu_devices", n)`, as
-`python -m sc2jax.experiments.benchmark --devices` does). On an accelerator the devices
-are the local GPUs or TPUs.
+`use_cpu_cores`, as `python -m sc2jax.experiments.benchmark` does). On an accelerator the
+devices are the local GPUs or TPUs.
 
     step = jax.jit(over_devices(jax.vmap(sim.step)))
     states, timesteps = step(states, actions)  # every leaf [B, ...], B a multiple of D
@@ -21,6 +21,7 @@ for B / D environments, and its fusion choices for another shape can round diffe
 
 from __future__ import annotations
 
+import os
 from collections.abc import Callable, Sequence
 
 import jax
@@ -74,3 +75,36 @@ def over_devices(batched_fn: Callable, devices: Sequence[jax.Device] | None = No
         return split(*args)
 
     return run
+
+
+def use_cpu_cores(at_least: int = 0) -> None:
+    """Gives the CPU platform one host device per core (or `at_least`, if more).
+
+    Call it before JAX starts its backends (before any computation); it changes nothing on
+    an accelerator, whose devices stay the local devices.
+
+    Raises:
+      RuntimeError: JAX's backends have already started.
+    """
+    jax.config.update("jax_num_cpu_devices", max(os.cpu_count() or 1, at_least))
+
+
+def device_sets(num_envs: int, counts: Sequence[int]) -> list[list[jax.Device]]:
+    """The local devices to split `num_envs` environments over, one list per device count
+    in `counts` (0: every local device). A count that does not divide `num_envs` becomes
+    one device, and repeated lists are dropped.
+
+    Raises:
+      ValueError: a count is more than the local devices.
+    """
+    local = jax.local_devices()
+    sets = []
+    for count in counts:
+        count = count or len(local)
+        if count > len(local):
+            raise ValueError(f"{count} devices asked for, but this process has {len(local)} "
+                             f"({local[0].platform}); allowed: 0..{len(local)}")
+        chosen = local[:count] if num_envs % count == 0 else local[:1]
+        if chosen not in sets:
+            sets.append(chosen)
+    return sets

@@ -24,7 +24,6 @@ available actions for the three allied marines against its heuristic enemy.
 from __future__ import annotations
 
 import datetime
-import os
 import statistics
 import time
 from collections.abc import Callable, Sequence
@@ -36,7 +35,7 @@ from absl import app, flags, logging
 
 from sc2jax.environment import MAPS, ObservationFormat, Simulator
 from sc2jax.environment.agents.random_agent import random_action
-from sc2jax.environment.devices import over_devices
+from sc2jax.environment.devices import device_sets, over_devices, use_cpu_cores
 from sc2jax.environment.minigames import check_map
 from sc2jax.experiments.checks import non_negative_ints, positive_ints
 from sc2jax.experiments.machine import machine
@@ -219,34 +218,6 @@ def smax_program(num_envs: int, step_mul: int, steps: int,
                    *smax_rollout(num_envs, steps, step_mul, devices))
 
 
-def device_sets(num_envs: int, counts: Sequence[int]) -> list[list[jax.Device]]:
-    """The local devices to split `num_envs` environments over, one list per device count
-    in `counts` (0: every local device); a count that does not divide `num_envs` becomes
-    one device. Duplicates are dropped.
-
-    Raises:
-      ValueError: a count is more than the local devices.
-    """
-    local = jax.local_devices()
-    sets = []
-    for count in counts:
-        count = count or len(local)
-        if count > len(local):
-            raise ValueError(f"--devices asks for {count} devices, but this process has "
-                             f"{len(local)} ({local[0].platform}); allowed: 0..{len(local)}")
-        chosen = local[:count] if num_envs % count == 0 else local[:1]
-        if chosen not in sets:
-            sets.append(chosen)
-    return sets
-
-
-def configure_cpu_devices(counts: Sequence[int]) -> None:
-    """Gives the CPU platform one host device per core (or the largest of `counts`, if
-    more). Call before JAX starts its backends; it changes nothing on an accelerator,
-    whose devices are the local devices."""
-    jax.config.update("jax_num_cpu_devices", max([os.cpu_count() or 1, *counts]))
-
-
 def markdown(results: Sequence[Result], smax: dict[tuple[int, int], Result], command: str,
              before: str, after: str, note: str) -> str:
     """The results section, as markdown."""
@@ -284,7 +255,7 @@ def main(argv: Sequence[str]) -> None:
         raise ValueError(f"--repeats must be >= 1 and --steps >= 0, got {FLAGS.repeats} "
                          f"and {FLAGS.steps}")
     device_counts = non_negative_ints("devices", FLAGS.devices)
-    configure_cpu_devices(device_counts)  # Before `machine()` starts the backend.
+    use_cpu_cores(max(device_counts))  # Before `machine()` starts the backend.
     fmt = ObservationFormat(screen_size=FLAGS.screen_size, minimap_size=FLAGS.minimap_size)
     before = machine()
     logging.info("Machine: %s", before)

@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 
 from sc2jax.environment.agents import random_action
-from sc2jax.environment.devices import over_devices
+from sc2jax.environment.devices import device_sets, over_devices
 from tests.environment.conftest import small_sim
 
 NUM_ENVS = 4
@@ -59,3 +59,17 @@ def test_bad_batches_are_refused_before_any_computation():
         split(np.float32(1.0))
     with pytest.raises(ValueError, match="at least one device"):
         over_devices(lambda tree: tree, [])
+
+
+def test_device_sets_split_what_divides_and_drop_repeats():
+    local = jax.local_devices()
+    assert len(local) == 2
+    assert device_sets(64, [1, 0]) == [local[:1], local]
+    assert device_sets(64, [2, 0, 1]) == [local, local[:1]]
+    # One environment cannot be split: both counts give the one device.
+    assert device_sets(1, [1, 2]) == [local[:1]]
+
+
+def test_device_sets_refuse_more_devices_than_there_are():
+    with pytest.raises(ValueError, match="3 devices asked for, but this process has 2"):
+        device_sets(64, [3])
