@@ -7,10 +7,9 @@ same time.
 
 On a CPU this is what uses its cores. An agent step of the simulator is about a
 thousand small kernels that run one after another, mostly on one thread, so one device
-leaves the other cores idle; JAX makes one host device per core when asked before its
-backend starts (`jax.config.update("jax_num_cpu_devices", n)`, as
-`use_cpu_cores`, as `python -m sc2jax.experiments.benchmark` does). On an accelerator the
-devices are the local GPUs or TPUs.
+leaves the other cores idle. JAX makes one host device per core when asked before its
+backends start (`use_cpu_cores`, which `python -m sc2jax.experiments.benchmark` calls). On
+an accelerator the devices are the local GPUs or TPUs.
 
     step = jax.jit(over_devices(jax.vmap(sim.step)))
     states, timesteps = step(states, actions)  # every leaf [B, ...], B a multiple of D

@@ -13,7 +13,7 @@ NUM_ENVS = 4
 
 def _play(fn, steps: int = 3):
     """Random play of `fn` (batched (states, actions) -> (states, timesteps)) from NUM_ENVS
-    distinct resets; returns the last (states, timesteps) as numpy."""
+    distinct resets; returns the last (states, timesteps)."""
     sim = small_sim("MoveToBeacon")
     state, ts = jax.jit(jax.vmap(sim.reset))(jax.random.split(jax.random.PRNGKey(3), NUM_ENVS))
     act = jax.jit(jax.vmap(random_action, in_axes=(0, 0, None)), static_argnums=2)
