@@ -131,13 +131,14 @@ def split_keys(keys, num: int):
     return jax.vmap(lambda key: jax.random.split(key, num), out_axes=1)(keys)
 
 
-def compiled_rollout(one_step: Callable, steps: int, devices: Sequence[jax.Device]):
+def compiled_rollout(one_step: Callable, steps: int, devices: Sequence[jax.Device] | None):
     """jit(`lax.scan` of `steps` calls of `one_step`), the carry's environments split over
-    `devices` (every leaf of the carry has the environment axis first)."""
+    `devices` (every leaf of the carry has the environment axis first; None: the default
+    device alone)."""
     def rollout(carry):
         return jax.lax.scan(one_step, carry, None, length=steps)[0]
 
-    return jax.jit(over_devices(rollout, devices))
+    return jax.jit(over_devices(rollout, devices or jax.devices()[:1]))
 
 
 def sc2jax_rollout(sim: Simulator, num_envs: int, steps: int,
@@ -165,7 +166,7 @@ def sc2jax_rollout(sim: Simulator, num_envs: int, steps: int,
 
     key, reset_key = jax.random.split(jax.random.PRNGKey(0))
     state, timestep = jax.jit(jax.vmap(sim.reset))(jax.random.split(reset_key, num_envs))
-    return (compiled_rollout(one_step, steps, devices or jax.devices()[:1]),
+    return (compiled_rollout(one_step, steps, devices),
             (state, timestep, jax.random.split(key, num_envs)))
 
 
@@ -207,7 +208,7 @@ def smax_rollout(num_envs: int, steps: int, step_mul: int,
 
     key, reset_key = jax.random.split(jax.random.PRNGKey(0))
     obs, state = jax.jit(jax.vmap(env.reset))(jax.random.split(reset_key, num_envs))
-    return (compiled_rollout(one_step, steps, devices or jax.devices()[:1]),
+    return (compiled_rollout(one_step, steps, devices),
             (state, obs, jax.random.split(key, num_envs)))
 
 
