@@ -3,7 +3,9 @@
 - Categorical feature layers are embedded: a one-hot encoding over the layer's scale
   followed by a 1x1 convolution, computed as an embedding lookup (a gather), so no
   one-hot tensor is ever built (`unit_type` has 1962 categories). Layer `l` gets
-  `embedding_dim(scale_l) = max(1, round(log2(scale_l)))` channels.
+  `embedding_dim(scale_l) = max(1, round(log2(scale_l)))` channels. Category 0 (no unit,
+  no player, not selected, ...) starts as the zero vector (`background_zero_init`), the
+  value the convolutions' zero padding gives beyond the screen's edge.
 - Scalar feature layers are rescaled by `log(1 + max(x, 0))`.
 - Non-spatial features (by default the 11 `player` statistics) are flattened,
   concatenated and rescaled by `log(1 + max(x, 0))`.
@@ -20,6 +22,7 @@ from collections.abc import Mapping
 import flax.linen as nn
 import jax
 import jax.numpy as jnp
+from flax.linen.linear import default_embed_init
 
 from sc2jax.environment.features import Feature
 from sc2jax.networks.spec import NetworkSpec
@@ -28,6 +31,22 @@ from sc2jax.networks.spec import NetworkSpec
 def embedding_dim(scale: int) -> int:
     """Channels of a categorical layer's embedding: max(1, round(log2(scale)))."""
     return max(1, int(round(math.log2(scale))))
+
+
+def background_zero_init(key: jax.Array, shape: tuple[int, ...],
+                         dtype=jnp.float32) -> jax.Array:
+    """An embedding table [categories, D]: Flax's default draw (N(0, 1) entries), with
+    row 0 set to zero.
+
+    Row 0 is the background of most layers (no unit, no player, not selected). With a
+    non-zero background, the convolutions' zero padding makes the screen's border
+    differ from its interior: at 16x16, FullyConv's 5x5 and 3x3 convolutions mark the
+    outer 3 pixels, 61% of the screen, and that artefact, not the units, dominates the
+    spatial variation the spatial policy sees. With a zero background the border is
+    plain ground at initialisation (the biases start at zero), and the units stand out
+    (docs/results.md, "Which seeds take off").
+    """
+    return default_embed_init(key, shape, dtype).at[0].set(0.0)
 
 
 def log_transform(x: jax.Array) -> jax.Array:
@@ -75,6 +94,7 @@ class SpatialEncoder(nn.Module):
             plane = x[..., c]
             if feature.is_categorical:
                 table = nn.Embed(feature.scale, embedding_dim(feature.scale),
+                                 embedding_init=background_zero_init,
                                  name=f"embed_{feature.name}")
                 # Gather; clipping keeps out-of-range values (none expected) well defined.
                 outs.append(table(jnp.clip(plane, 0, feature.scale - 1)))

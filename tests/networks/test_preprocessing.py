@@ -6,7 +6,8 @@ import numpy as np
 
 from sc2jax.environment import SCREEN_FEATURES
 from sc2jax.networks import SpatialEncoder, embedding_dim, log_transform
-from sc2jax.networks.preprocessing import nonspatial_features
+from sc2jax.networks.fully_conv import FullyConvStack
+from sc2jax.networks.preprocessing import background_zero_init, nonspatial_features
 from tests.networks.helpers import SPEC, fast_init, random_obs
 
 
@@ -43,3 +44,30 @@ def test_nonspatial_features_are_log_scaled():
     out = nonspatial_features(SPEC, obs)
     assert out.shape == (2, 11)
     np.testing.assert_allclose(out, np.log1p(np.asarray(obs["player"], np.float32)), rtol=1e-6)
+
+
+def test_background_category_starts_at_zero():
+    key = jax.random.key(5)
+    table = background_zero_init(key, (5, 2))
+    default = jax.nn.initializers.variance_scaling(1.0, "fan_in", "normal", out_axis=0)(key, (5, 2))
+    np.testing.assert_array_equal(table[0], 0.0)
+    np.testing.assert_array_equal(table[1:], default[1:])  # Flax's draw for the others
+
+
+def test_an_empty_screen_has_no_border_at_initialisation():
+    # All background (category 0): the embedded screen is zero, as the convolutions' zero
+    # padding is, so FullyConv's stack gives every pixel the same output. With Flax's
+    # default table (row 0 not zero) the outer 3 pixels differ from the interior.
+    layers = (SCREEN_FEATURES.player_relative, SCREEN_FEATURES.selected)
+    enc, stack = SpatialEncoder(layers), FullyConvStack()
+    empty = jnp.zeros((1, 2, 16, 16), jnp.int32)
+    enc_params = enc.init(jax.random.key(0), empty)
+    embedded = enc.apply(enc_params, empty)
+    stack_params = stack.init(jax.random.key(1), embedded)
+    out = np.asarray(stack.apply(stack_params, embedded))
+    np.testing.assert_array_equal(out, 0.0)
+    shifted = jax.tree.map(lambda t: t + 1.0, enc_params)  # a non-zero background
+    border = np.asarray(stack.apply(stack_params, enc.apply(shifted, empty)))[0]
+    interior = border[3:-3, 3:-3]
+    assert np.ptp(interior, axis=(0, 1)).max() < 1e-5  # uniform inside
+    assert np.abs(border[0, 0] - interior[0, 0]).max() > 1e-3  # the corner differs
