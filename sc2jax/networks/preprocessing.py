@@ -35,7 +35,7 @@ def embedding_dim(scale: int) -> int:
 
 def background_zero_init(key: jax.Array, shape: tuple[int, ...],
                          dtype=jnp.float32) -> jax.Array:
-    """An embedding table [categories, D]: Flax's default draw (N(0, 1) entries), with
+    """An embedding table [categories, D]: Flax's default draw (N(0, 1/D) entries), with
     row 0 set to zero.
 
     Row 0 is the background of most layers (no unit, no player, not selected). With a
