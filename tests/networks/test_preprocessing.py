@@ -3,6 +3,7 @@
 import jax
 import jax.numpy as jnp
 import numpy as np
+from flax.linen.linear import default_embed_init
 
 from sc2jax.environment import SCREEN_FEATURES
 from sc2jax.networks import SpatialEncoder, embedding_dim, log_transform
@@ -49,7 +50,7 @@ def test_nonspatial_features_are_log_scaled():
 def test_background_category_starts_at_zero():
     key = jax.random.key(5)
     table = background_zero_init(key, (5, 2))
-    default = jax.nn.initializers.variance_scaling(1.0, "fan_in", "normal", out_axis=0)(key, (5, 2))
+    default = default_embed_init(key, (5, 2))
     np.testing.assert_array_equal(table[0], 0.0)
     np.testing.assert_array_equal(table[1:], default[1:])  # Flax's draw for the others
 
