@@ -5,7 +5,8 @@
 - `BatchedSC2Env`: `num_envs` environments stepped together in one compiled call, the
   padded layout with a leading batch dimension, takes a batched `DenseAction` or a list
   of `FunctionCall`s. Each environment starts a new episode on the step after its LAST
-  timestep (auto-reset).
+  timestep (auto-reset). With `num_devices` > 1 the batch is split over that many local
+  devices (`devices.over_devices`), each stepping its share at the same time.
 
 Both hold only a state and a key; all game logic is in `Simulator`.
 """
@@ -18,10 +19,12 @@ from typing import Any
 
 import dm_env
 import jax
+import jax.numpy as jnp
 import numpy as np
 
 from sc2jax.environment import specs
 from sc2jax.environment.dense import DenseAction, check_dense_action, to_dense
+from sc2jax.environment.devices import over_devices
 from sc2jax.environment.functions import FUNCTIONS, FunctionCall, validate_function_call
 from sc2jax.environment.minigames import MAPS, check_map
 from sc2jax.environment.simulator import EnvParams, Simulator
@@ -78,13 +81,34 @@ def to_padded_layout(obs: dict, fmt: specs.ObservationFormat) -> dict:
 
 
 @functools.cache
-def compiled(sim: Simulator, batched: bool):
-    """Compiled reset and step, shared by every environment of the same simulator."""
+def compiled(sim: Simulator, batched: bool, devices: tuple[jax.Device, ...] = ()):
+    """Compiled reset and step, shared by every environment of the same simulator.
+
+    Batched, they take a leading environment axis on every argument but the `EnvParams`
+    (shared by all). With more than one of `devices`, that axis is split over them.
+    """
     reset, step = sim.reset, sim.step
-    if batched:
+    if batched and len(devices) > 1:
+        reset, step = (_split_over(fn, devices) for fn in (reset, step))
+    elif batched:
         reset = jax.vmap(reset, in_axes=(0, None))
         step = jax.vmap(step, in_axes=(0, 0, None))
     return jax.jit(reset), jax.jit(step)
+
+
+def _split_over(fn, devices):
+    """`fn(*per_env, params)` vmapped over `per_env` and split over `devices`; the shared
+    `params` are broadcast to each environment, as `over_devices` splits every argument."""
+    split = over_devices(jax.vmap(fn), devices)
+
+    def run(*args):
+        *per_env, params = args
+        num_envs = jax.tree_util.tree_leaves(per_env)[0].shape[0]
+        params = jax.tree_util.tree_map(
+            lambda p: jnp.broadcast_to(p, (num_envs, *np.shape(p))), params)
+        return split(*per_env, params)
+
+    return run
 
 
 @functools.cache
@@ -100,7 +124,8 @@ def simulator(map_name: str, fmt: specs.ObservationFormat, step_mul: int, score_
 class _Base(dm_env.Environment):
 
     def __init__(self, sim: Simulator, seed: int | None, ensure_available_actions: bool,
-                 game_steps_per_episode: int, batched: bool):
+                 game_steps_per_episode: int, batched: bool,
+                 devices: tuple[jax.Device, ...] = ()):
         if seed is not None and (isinstance(seed, bool) or not isinstance(seed, int)):
             raise ValueError(f"seed must be an int or None, got {seed!r}")
         if not isinstance(game_steps_per_episode, int) or game_steps_per_episode < 0:
@@ -112,7 +137,7 @@ class _Base(dm_env.Environment):
         self._params = EnvParams(game_steps_per_episode=np.int32(game_steps_per_episode))
         seed = np.random.SeedSequence().entropy % (2 ** 31) if seed is None else seed
         self._key = jax.random.PRNGKey(seed)
-        self._reset_fn, self._step_fn = compiled(sim, batched)
+        self._reset_fn, self._step_fn = compiled(sim, batched, devices)
         self._state = None
         self._available = None
 
@@ -194,14 +219,23 @@ class BatchedSC2Env(_Base):
       sim: the simulator.
       num_envs: the number of environments.
       seed, ensure_available_actions, game_steps_per_episode: as for `SC2Env`.
+      num_devices: how many of `jax.local_devices()` to split the environments over, each
+        stepping num_envs / num_devices of them (0: all of them). On a CPU, JAX has one
+        device unless asked for more before it starts (`devices.use_cpu_cores`). Each
+        environment's arithmetic is the same on any count, but the split program is
+        compiled for fewer environments and may round differently (`devices`).
     """
 
     def __init__(self, sim: Simulator, num_envs: int, seed: int | None = None,
-                 ensure_available_actions: bool = True, game_steps_per_episode: int = 0):
+                 ensure_available_actions: bool = True, game_steps_per_episode: int = 0,
+                 num_devices: int = 1):
         if isinstance(num_envs, bool) or not isinstance(num_envs, int) or num_envs < 1:
             raise ValueError(f"num_envs must be a positive int, got {num_envs!r}")
-        super().__init__(sim, seed, ensure_available_actions, game_steps_per_episode, True)
+        devices = _devices_for(num_devices, num_envs)
+        super().__init__(sim, seed, ensure_available_actions, game_steps_per_episode, True,
+                         devices)
         self.num_envs = num_envs
+        self.devices = devices
 
     def observation_spec(self) -> dict:
         """The spec of one environment's padded observation (without the batch dim)."""
@@ -247,6 +281,21 @@ class BatchedSC2Env(_Base):
         return timestep
 
 
+def _devices_for(num_devices: int, num_envs: int) -> tuple[jax.Device, ...]:
+    """The first `num_devices` local devices (0: all), checked against `num_envs`."""
+    local = jax.local_devices()
+    if (isinstance(num_devices, bool) or not isinstance(num_devices, int)
+            or not 0 <= num_devices <= len(local)):
+        raise ValueError(f"num_devices must be an int in 0..{len(local)} (this process has "
+                         f"{len(local)} {local[0].platform} devices; 0: all), got "
+                         f"{num_devices!r}")
+    devices = tuple(local[:num_devices or len(local)])
+    if num_envs % len(devices):
+        raise ValueError(f"num_envs={num_envs} does not split evenly over {len(devices)} "
+                         f"devices; use a multiple of {len(devices)}")
+    return devices
+
+
 def _check_dense_ranges(action: DenseAction, types) -> None:
     """Raises ValueError if a dense action's function id or an argument is out of range."""
     fid = np.asarray(action.function)
@@ -278,7 +327,8 @@ def make(map_name: str, screen_size: specs.Size = 64, minimap_size: specs.Size =
          score_multiplier: float = 1.0, discount: float = 1.0,
          ensure_available_actions: bool = True, game_steps_per_episode: int = 0,
          allow_cheating_layers: bool = False, backend: str = "simulator",
-         sc2path: str | None = None, bot: Any = None) -> dm_env.Environment:
+         sc2path: str | None = None, bot: Any = None,
+         num_devices: int = 1) -> dm_env.Environment:
     """Creates an environment by map name: the simulator's, or the real game's.
 
     Args:
@@ -302,6 +352,8 @@ def make(map_name: str, screen_size: specs.Size = 64, minimap_size: specs.Size =
       bot: a `game_env.Bot` opponent (backend "sc2"; e.g. for the full game). On maps
         other than the mini-games the reward defaults to the outcome (score_index -1)
         and episodes to PySC2's 30 game minutes (`LADDER_GAME_STEPS`), a tie.
+      num_devices: split a `BatchedSC2Env`'s environments over this many local devices
+        (0: all; see `BatchedSC2Env`). Only with num_envs and the simulator.
 
     Returns:
       An `SC2Env` (num_envs None), a `BatchedSC2Env`, or for backend "sc2" a
@@ -310,6 +362,10 @@ def make(map_name: str, screen_size: specs.Size = 64, minimap_size: specs.Size =
     Raises:
       ValueError: for an unknown map or a bad setting, before anything is compiled.
     """
+    if num_devices != 1 and (num_envs is None or backend != "simulator"):
+        raise ValueError(f"num_devices={num_devices!r} splits a batch of simulator "
+                         f"environments; it needs num_envs and backend='simulator' (got "
+                         f"num_envs={num_envs!r}, backend={backend!r})")
     if backend == "sc2":
         return _make_game(map_name, screen_size, minimap_size, step_mul, num_envs, seed,
                           screen_features, minimap_features, use_feature_units, use_raw_units,
@@ -329,7 +385,8 @@ def make(map_name: str, screen_size: specs.Size = 64, minimap_size: specs.Size =
                     float(discount), allow_cheating_layers)
     if num_envs is None:
         return SC2Env(sim, seed, ensure_available_actions, game_steps_per_episode)
-    return BatchedSC2Env(sim, num_envs, seed, ensure_available_actions, game_steps_per_episode)
+    return BatchedSC2Env(sim, num_envs, seed, ensure_available_actions, game_steps_per_episode,
+                         num_devices)
 
 
 def _make_game(map_name, screen_size, minimap_size, step_mul, num_envs, seed, screen_features,

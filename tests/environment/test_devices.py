@@ -1,12 +1,14 @@
-"""`over_devices`: environments split over the two host devices that tests/conftest.py makes."""
+"""`over_devices`, and the batched dm_env wrapper over it: environments split over the two
+host devices that tests/conftest.py makes."""
 
 import jax
 import numpy as np
 import pytest
 
+from sc2jax.environment import DenseAction, make
 from sc2jax.environment.agents import random_action
 from sc2jax.environment.devices import device_sets, over_devices
-from tests.environment.conftest import small_sim
+from tests.environment.conftest import SMALL_MAKE, small_sim
 
 NUM_ENVS = 4
 
@@ -73,3 +75,39 @@ def test_device_sets_split_what_divides_and_drop_repeats():
 def test_device_sets_refuse_more_devices_than_there_are():
     with pytest.raises(ValueError, match="3 devices asked for, but this process has 2"):
         device_sets(64, [3])
+
+
+def _wrapper_episode(num_devices: int, steps: int = 5):
+    """The batched dm_env wrapper's timesteps over `steps` random steps (episodes of 2
+    steps, so environments auto-reset); the same actions on any device count."""
+    env = make("MoveToBeacon", num_envs=NUM_ENVS, seed=5, game_steps_per_episode=16,
+               num_devices=num_devices, **SMALL_MAKE)
+    act = jax.jit(jax.vmap(random_action, in_axes=(0, 0, None)), static_argnums=2)
+    timesteps = [env.reset()]
+    for i in range(steps):
+        keys = jax.random.split(jax.random.PRNGKey(i), NUM_ENVS)
+        action = act(keys, timesteps[-1].observation["available_actions"],
+                     env.simulator.fmt.types)
+        timesteps.append(env.step(DenseAction(*jax.device_get(action))))
+    return env, timesteps
+
+
+def test_batched_wrapper_split_over_two_devices_plays_as_one_device_does():
+    two_env, two = _wrapper_episode(num_devices=2)
+    assert two_env._state.units.pos.sharding.device_set == set(jax.devices()[:2])
+    _, one = _wrapper_episode(num_devices=1)
+    assert [list(ts.step_type) for ts in two] == [list(ts.step_type) for ts in one]
+    assert {int(t) for ts in one for t in ts.step_type} == {0, 1, 2}  # auto-reset seen
+    for a, b in zip(one, two):
+        np.testing.assert_array_equal(a.reward, b.reward)
+        for key, value in a.observation.items():
+            assert np.array_equal(value, b.observation[key]), key
+
+
+def test_batched_wrapper_refuses_bad_device_counts_before_compiling():
+    with pytest.raises(ValueError, match=r"num_devices must be an int in 0\.\.2.*got 3"):
+        make("MoveToBeacon", num_envs=4, num_devices=3, **SMALL_MAKE)
+    with pytest.raises(ValueError, match="num_envs=3 does not split evenly over 2 devices"):
+        make("MoveToBeacon", num_envs=3, num_devices=0, **SMALL_MAKE)
+    with pytest.raises(ValueError, match="num_devices=2 splits a batch.*num_envs=None"):
+        make("MoveToBeacon", num_devices=2, **SMALL_MAKE)
