@@ -3,7 +3,7 @@
     python scripts/lstm_output.py --run_dir=runs/lstm            # every checkpoint
     python scripts/lstm_output.py --run_dir=runs/lstm --steps=0,640
 
-FullyConv LSTM's heads see only the ConvLSTM's output h = o * tanh(c). Where h is near
+FullyConv LSTM's heads see only the ConvLSTM's output h = sigmoid(o) * tanh(c). Where h is near
 zero at every pixel, the spatial policy (a 1x1 convolution of h) is uniform and its
 gradient, which is proportional to h, vanishes: the run cannot learn to click. For each
 checkpoint (step 0: the run's initial parameters), this prints, over the observations
@@ -60,7 +60,7 @@ def main():
         obs = agent.core.observe(timestep.observation)
         carry, out = network.apply(params, network.initial_carry(EPISODES), obs,
                                    jnp.ones(EPISODES, bool), method="step")
-        logits = out.argument_logits[0].logits
+        logits = out.argument_logits[0].logits  # The screen argument (TYPES[0]).
         # h = sigmoid(o) * tanh(c), so the gate is h / tanh(c) where tanh(c) is not ~0.
         tanh_c = jnp.tanh(carry.c)
         defined = jnp.abs(tanh_c) > 1e-3
@@ -71,7 +71,7 @@ def main():
               f"{float(carry.h.std(axis=(1, 2)).mean()):.5f}, |c| mean "
               f"{float(jnp.abs(carry.c).mean()):.4f}, screen logits std over pixels "
               f"{float(logits.std(axis=-1).mean()):.5f}, output gate mean "
-              f"{float(gate.mean()):.4f}", flush=True)
+              f"{float(gate):.4f}", flush=True)
 
 
 if __name__ == "__main__":
