@@ -73,7 +73,7 @@ _NON_POINT_SCALE = flags.DEFINE_float(
     "every parameter outside the spatial-argument heads (1: one rate, the paper's). With the "
     "zero background, spatial 2e-2 and the rest 1e-3 reached 20 on 5 of 6 MoveToBeacon "
     "seeds, one rate 5e-3 on 11 of 18. FullyConv LSTM needs it at such rates: at one rate "
-    "of 5e-3 its ConvLSTM's output gate closes and it never learns; with 0.1 it learns "
+    "of 5e-3 its ConvLSTM's output gate closed and it did not learn; with 0.1 it learns "
     "MoveToBeacon (docs/results.md).")
 _CLIP = flags.DEFINE_float("max_grad_norm", _DEFAULTS.max_grad_norm,
                            "Global gradient-norm clip (0: none).")
