@@ -22,20 +22,8 @@ import jax.numpy as jnp
 from sc2jax.environment import FUNCTIONS, dense
 from sc2jax.experiments.config import TrainConfig
 from sc2jax.experiments.trainer import build, load_run
-from sc2jax.networks.fully_conv_lstm import FullyConvLSTM
 
 EPISODES = 32
-
-
-def parameters(run_dir: str, step: int):
-    """The agent and its parameters at checkpoint `step` (0: the run's initial ones)."""
-    if step > 0:
-        agent, params, _ = load_run(run_dir, step)
-        return agent, params
-    with open(os.path.join(run_dir, "config.json")) as f:
-        config = TrainConfig.from_json(json.load(f))
-    agent = build(config)
-    return agent, agent.initial_state(jax.random.PRNGKey(config.seed)).learner.params
 
 
 def main():
@@ -44,20 +32,27 @@ def main():
     parser.add_argument("--steps", default=None,
                         help="comma-separated checkpoint steps (default: 0 and every one)")
     args = parser.parse_args()
+    with open(os.path.join(args.run_dir, "config.json")) as f:
+        config = TrainConfig.from_json(json.load(f))
+    if config.agent != "fullyconv_lstm":
+        raise ValueError(f"{args.run_dir} trains {config.agent!r}, not fullyconv_lstm")
     if args.steps is None:
         found = os.listdir(os.path.join(args.run_dir, "checkpoints"))
         steps = [0] + sorted(int(s) for s in found if s.isdigit())
     else:
         steps = [int(s) for s in args.steps.split(",")]
+    agent = build(config)
+    network, sim = agent.network, agent.sim
+    # The same observations for every checkpoint: the step after `select_army`.
+    states, _ = jax.vmap(sim.reset)(jax.random.split(jax.random.PRNGKey(100), EPISODES))
+    select = dense.to_dense([FUNCTIONS.select_army("select")] * EPISODES)
+    _, timestep = jax.vmap(sim.step)(states, select)
+    obs = agent.core.observe(timestep.observation)
     for step in steps:
-        agent, params = parameters(args.run_dir, step)
-        network, sim = agent.network, agent.sim
-        if not isinstance(network, FullyConvLSTM):
-            raise ValueError(f"{args.run_dir} trains {agent.config.agent!r}, not fullyconv_lstm")
-        states, _ = jax.vmap(sim.reset)(jax.random.split(jax.random.PRNGKey(100), EPISODES))
-        select = dense.to_dense([FUNCTIONS.select_army("select")] * EPISODES)
-        _, timestep = jax.vmap(sim.step)(states, select)
-        obs = agent.core.observe(timestep.observation)
+        if step > 0:
+            params = load_run(args.run_dir, step)[1]
+        else:  # The run's initial parameters, as `trainer.train` draws them.
+            params = agent.initial_state(jax.random.PRNGKey(config.seed)).learner.params
         carry, out = network.apply(params, network.initial_carry(EPISODES), obs,
                                    jnp.ones(EPISODES, bool), method="step")
         logits = out.argument_logits[0].logits  # The screen argument (TYPES[0]).
