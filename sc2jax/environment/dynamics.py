@@ -22,7 +22,7 @@ import jax.numpy as jnp
 
 from sc2jax.environment import harvest
 from sc2jax.environment.geometry import distances, squared_length
-from sc2jax.environment.state import NO_TARGET, Order, Owner, Units, leading_slots
+from sc2jax.environment.state import NO_TARGET, Order, Owner, Units, leading_slots, slot_rows
 from sc2jax.environment.units import UNIT_DATA, Attribute
 
 # A move order ends within this distance of its goal, or when the unit is blocked
@@ -147,7 +147,7 @@ def pop_order(units: Units, done) -> Units:
 def _select_targets(units: Units, data, block: PairBlock):
     """Returns int32[R] the unit each slot of the block's rows engages this loop (one of
     its columns), or -1."""
-    units, data = _slice(units, block.rows), _slice(data, block.rows)
+    units, data = slot_rows(units, block.rows), slot_rows(data, block.rows)
     gap, enemy = block.gap, block.enemy
     order = units.orders[:, 0]
     has_weapon = data.damage > 0
@@ -171,11 +171,6 @@ def _select_targets(units: Units, data, block: PairBlock):
     auto = jnp.where(scans, acquired, NO_TARGET)
     ordered = units.order_unit[:, 0]
     return jnp.where(order == Order.ATTACK_UNIT, ordered, auto)
-
-
-def _slice(tree, rows: slice):
-    """The `rows` slots of every array of a per-slot pytree."""
-    return jax.tree.map(lambda x: x[rows], tree)
 
 
 def game_loop(units: Units, key, playable, bursts: bool = False, workers: bool = False,
@@ -362,7 +357,7 @@ def _splash(data, block: PairBlock):
                            <= data.burst[block.rows, None])
     columns = jnp.broadcast_to(jnp.arange(block.cols.start, block.cols.stop),
                                block.dist.shape)
-    return jnp.where(reach, _damage_per_hit(_slice(data, block.rows), columns, data), 0.0)
+    return jnp.where(reach, _damage_per_hit(slot_rows(data, block.rows), columns, data), 0.0)
 
 
 def _called(units: Units, data, block: PairBlock, fires, target, attacker):

@@ -25,10 +25,15 @@ BUILD_QUEUE = 5
 NO_TARGET = -1
 
 
+def slot_rows(tree, rows: slice):
+    """The `rows` slots of every array of a per-slot pytree (`Units`, unit-data rows,
+    or a single [N, ...] array)."""
+    return jax.tree.map(lambda x: x[rows], tree)
+
+
 def leading_slots(tree, k: int | None):
-    """The first k slots of every array of a per-slot pytree (`Units`, unit-data rows,
-    or a single [N, ...] array); the whole tree for None."""
-    return tree if k is None else jax.tree.map(lambda x: x[:k], tree)
+    """The first k slots of every array of a per-slot pytree; the whole tree for None."""
+    return tree if k is None else slot_rows(tree, slice(k))
 
 
 class Order(enum.IntEnum):
