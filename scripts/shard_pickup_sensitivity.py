@@ -1,11 +1,15 @@
 """How CollectMineralShards scores depend on the shard pickup distance (docs/fidelity.md).
 
     python scripts/shard_pickup_sensitivity.py --distances=0.75,1,1.5,2,2.5,3
+    python scripts/shard_pickup_sensitivity.py --distances=0.75,1,1.5,2 --size=16
 
 The game's pickup distance is not in the map file (it is set in the Liberty campaign
 mod), so the simulator uses the touching distance, 0.75 (a marine's radius plus a
 shard's). This re-runs the random and scripted agents with other distances and prints
 one markdown row per distance and agent: mean, std, max, beside the paper's rows.
+`--size` sets the screen and minimap resolution (default 64): the scripted agent clicks
+on a shard's pixel, whose centre is up to 0.53 world units from the shard at 32² and
+1.06 at 16², so at 16² it depends on the pickup distance more than at 64².
 """
 
 import argparse
@@ -25,6 +29,7 @@ def main():
     parser.add_argument("--distances", default="0.75,1,1.25,1.5,2,2.5,3")
     parser.add_argument("--episodes", type=int, default=200)
     parser.add_argument("--num_envs", type=int, default=50)
+    parser.add_argument("--size", type=int, default=64)
     args = parser.parse_args()
     distances = [float(d) for d in args.distances.split(",")]
     if any(d <= 0 for d in distances):
@@ -41,7 +46,7 @@ def main():
         for agent in ("random", "scripted"):
             environments.simulator.cache_clear()
             extra = required_format(MAP) if agent == "scripted" else {}
-            sim = make(MAP, screen_size=64, minimap_size=64, **extra).simulator
+            sim = make(MAP, screen_size=args.size, minimap_size=args.size, **extra).simulator
             start = time.time()
             stats = evaluation.run_episodes(sim, evaluation.make_policy(agent, MAP, sim.fmt),
                                             args.episodes, args.num_envs, seed=1)
