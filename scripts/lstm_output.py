@@ -13,15 +13,13 @@ mean of the output gate sigmoid(o) (= h / tanh(c)).
 """
 
 import argparse
-import json
 import os
 
 import jax
 import jax.numpy as jnp
 
 from sc2jax.environment import FUNCTIONS, dense
-from sc2jax.experiments.config import TrainConfig
-from sc2jax.experiments.trainer import build, load_run
+from sc2jax.experiments.trainer import build, restore_params, run_config
 
 EPISODES = 32
 
@@ -32,8 +30,9 @@ def main():
     parser.add_argument("--steps", default=None,
                         help="comma-separated checkpoint steps (default: 0 and every one)")
     args = parser.parse_args()
-    with open(os.path.join(args.run_dir, "config.json")) as f:
-        config = TrainConfig.from_json(json.load(f))
+    config = run_config(args.run_dir)
+    if config is None:
+        raise FileNotFoundError(f"{args.run_dir} is not a run directory (no config.json)")
     if config.agent != "fullyconv_lstm":
         raise ValueError(f"{args.run_dir} trains {config.agent!r}, not fullyconv_lstm")
     if args.steps is None:
@@ -50,7 +49,7 @@ def main():
     obs = agent.core.observe(timestep.observation)
     for step in steps:
         if step > 0:
-            params = load_run(args.run_dir, step)[1]
+            params = restore_params(agent, args.run_dir, step)[0]
         else:  # The run's initial parameters, as `trainer.train` draws them.
             params = agent.initial_state(jax.random.PRNGKey(config.seed)).learner.params
         carry, out = network.apply(params, network.initial_carry(EPISODES), obs,

@@ -170,19 +170,25 @@ def _episode_rows(episodes, first_step: int, steps_per_update: int, k: int):
     return steps, np.asarray(episodes.score)[ended]
 
 
+def run_config(run_dir: str) -> TrainConfig | None:
+    """The config saved in a run (or sweep) directory's config.json; None if it has none."""
+    path = os.path.join(run_dir, "config.json")
+    if not os.path.exists(path):
+        return None
+    with open(path) as f:
+        return TrainConfig.from_json(json.load(f))
+
+
 def check_run_dir(run_dir: str, config: TrainConfig) -> None:
     """Raises ValueError if `run_dir` holds a run whose config differs from `config` in
     anything but `total_steps`."""
-    path = os.path.join(run_dir, "config.json")
-    if os.path.exists(path):
-        with open(path) as f:
-            saved = TrainConfig.from_json(json.load(f))
-        if saved != config:
-            diff = {k: (v, getattr(config, k)) for k, v in saved.to_json().items()
-                    if getattr(config, k) != v and k != "total_steps"}
-            if diff:
-                raise ValueError(f"{run_dir} holds a run with another config; differences "
-                                 f"(saved, given): {diff}. Use a new directory.")
+    saved = run_config(run_dir)
+    if saved is not None and saved != config:
+        diff = {k: (v, getattr(config, k)) for k, v in saved.to_json().items()
+                if getattr(config, k) != v and k != "total_steps"}
+        if diff:
+            raise ValueError(f"{run_dir} holds a run with another config; differences "
+                             f"(saved, given): {diff}. Use a new directory.")
 
 
 def launch_games(config: TrainConfig, sc2path: str | None = None) -> GameEnvBatch:
@@ -461,12 +467,17 @@ def load_run(run_dir: str, step: int | None = None,
     """
     if best and step is not None:
         raise ValueError(f"give a checkpoint step or best, not both (step={step!r})")
-    path = os.path.join(run_dir, "config.json")
-    if not os.path.exists(path):
+    config = run_config(run_dir)
+    if config is None:
         raise FileNotFoundError(f"{run_dir} is not a run directory (no config.json)")
-    with open(path) as f:
-        config = TrainConfig.from_json(json.load(f))
     agent = build(config)
+    return (agent, *restore_params(agent, run_dir, step, best))
+
+
+def restore_params(agent: Agent, run_dir: str, step: int | None = None,
+                   best: bool = False) -> tuple[Any, dict]:
+    """(parameters, metadata) of a run of `agent` (built from the run's config), as
+    `load_run` returns them."""
     target = jax.eval_shape(lambda: agent.initial(jax.random.PRNGKey(0)))
     if best:
         missing = FileNotFoundError(f"{run_dir} has no best parameters (saved once "
@@ -477,8 +488,7 @@ def load_run(run_dir: str, step: int | None = None,
         with Checkpointer(os.path.join(run_dir, "best"), max_to_keep=1) as checkpointer:
             if checkpointer.latest_step() is None:
                 raise missing
-            params, meta = checkpointer.restore(_params(target))
-        return agent, params, meta
+            return checkpointer.restore(_params(target))
     with Checkpointer(os.path.join(run_dir, "checkpoints")) as checkpointer:
         state, meta = checkpointer.restore(target, step)
-    return agent, _params(state), meta
+    return _params(state), meta
