@@ -1,4 +1,6 @@
-"""`lazy_where`: a `where` that computes its first branch only when it is taken.
+"""Computing only what is used, under `vmap` too: `lazy_where` and `smallest_fit`.
+
+`lazy_where` is a `where` that computes its first branch only when it is taken.
 
 The engine has rare, costly events: an episode's auto-reset, a beacon that moves, a new
 wave of shards or zerglings. Written as `jnp.where(event, costly(...), kept)`, the costly
@@ -12,15 +14,21 @@ computes it only when it is used:
   32 or more), and for the whole batch otherwise.
 
 Either way the result is the same as the plain `where`, bit for bit.
+
+`smallest_fit` runs a computation compiled for several sizes at the smallest size that
+fits (the economy maps' game loops on the unit slots in use, out of up to 200); under
+`vmap`, at the smallest that fits the whole batch.
 """
 
 from __future__ import annotations
 
-from collections.abc import Callable
+import functools
+from collections.abc import Callable, Sequence
 from typing import Any, TypeVar
 
 import jax
 import jax.numpy as jnp
+import numpy as np
 
 Out = TypeVar("Out")
 
@@ -84,3 +92,43 @@ def lazy_where(pred, compute: Callable[[Any], Out], operand: Any, otherwise: Out
         return out, jax.tree_util.tree_map(lambda _: True, out)
 
     return select(pred, operand, otherwise)
+
+
+def smallest_fit(need, sizes: Sequence[int], compute: Callable[[int, Any], Out],
+                 operand: Any) -> Out:
+    """`compute(size, operand)` for the smallest of `sizes` that is at least `need` (the
+    largest where none is): every size is compiled, one runs.
+
+    Under `vmap` one size serves the whole batch, the smallest that fits every
+    environment's `need`, and so under nested `vmap`s (each level takes its batch's
+    largest). The caller guarantees that every size that fits gives the same result, so
+    that an environment's result does not depend on the rest of its batch.
+
+    Args:
+      need: int32 scalar.
+      sizes: ascending static ints.
+      compute: (size, operand) -> a pytree of the same structure, shapes and dtypes for
+        every size. It must take every traced value it needs through `operand`.
+      operand: a pytree of arrays.
+    """
+    sizes = tuple(sizes)
+    if not sizes or list(sizes) != sorted(set(sizes)):
+        raise ValueError(f"sizes must be ascending and distinct, got {sizes!r}")
+    bounds = np.asarray(sizes[:-1], np.int32)
+
+    @jax.custom_batching.custom_vmap
+    def run(need, operand):
+        index = jnp.sum(jnp.asarray(bounds) < need).astype(jnp.int32)
+        return jax.lax.switch(index, [functools.partial(compute, s) for s in sizes], operand)
+
+    @run.def_vmap
+    def run_batched(axis_size, in_batched, need, operand):
+        operand = jax.tree_util.tree_map(
+            lambda x, b: x if b else jnp.broadcast_to(x, (axis_size,) + x.shape), operand,
+            in_batched[1])
+        out = smallest_fit(jnp.max(need), sizes,
+                           lambda size, op: jax.vmap(functools.partial(compute, size))(op),
+                           operand)
+        return out, jax.tree_util.tree_map(lambda _: True, out)
+
+    return run(need, operand)

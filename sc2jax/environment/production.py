@@ -97,6 +97,18 @@ def tech_ok(units: Units, unit_type):
     return (needed == 0) | has_structure(units, needed)
 
 
+MIN_BUILD_LOOPS = int(UNIT_DATA.build_time[UNIT_DATA.build_time > 0].min())
+"""The shortest build time, in game loops (an SCV's)."""
+
+
+def creators(units: Units):
+    """bool[N]: the units that can create one, and only one, unit within `MIN_BUILD_LOOPS`
+    game loops with no new action: producers (one unit per build time) and SCVs with a
+    Build order (they place one structure, then construct it for its build time)."""
+    builds = jnp.any(units.orders == Order.BUILD, axis=1)
+    return _own(units) & ((trained_type(units) != 0) | builds)
+
+
 def trained_type(units: Units):
     """int32[N]: the unit type each slot trains (0 for non-producers)."""
     return jnp.asarray(_TRAINED)[units.type]

@@ -12,6 +12,7 @@ episode instead and returns FIRST, as dm_env (and PySC2) do. Batch with `jax.vma
 from __future__ import annotations
 
 import dataclasses
+import functools
 
 import dm_env
 import jax
@@ -19,17 +20,22 @@ import jax.numpy as jnp
 import numpy as np
 from flax import struct
 
-from sc2jax.environment import score, specs
+from sc2jax.environment import production, score, specs
 from sc2jax.environment.actions import apply_action
 from sc2jax.environment.availability import CARD_TABLE
 from sc2jax.environment.dense import DenseAction
 from sc2jax.environment.dynamics import game_loop
-from sc2jax.environment.lazy import lazy_where
+from sc2jax.environment.lazy import lazy_where, smallest_fit
 from sc2jax.environment.minigames import get_map
 from sc2jax.environment.observation import observe
-from sc2jax.environment.production import production_loop
 from sc2jax.environment.render import Renderer, sight_grid
-from sc2jax.environment.state import NUM_SCORE_CUMULATIVE, EnvState, Outcome
+from sc2jax.environment.state import (
+    NUM_SCORE_CUMULATIVE,
+    EnvState,
+    Outcome,
+    leading_slots,
+    slots_in_use,
+)
 
 BLIZZARD_SCORE = -2
 """`Simulator.score_index` for rewards from the Blizzard score."""
@@ -214,7 +220,7 @@ class Simulator:
             minerals = state.minerals + events.minerals.astype(jnp.int32)
             next_tag, spent = state.next_tag, jnp.int32(0)
             if game.has_production:
-                economy = production_loop(units, minerals, next_tag, buildable)
+                economy = production.production_loop(units, minerals, next_tag, buildable)
                 units, minerals, next_tag = economy.units, economy.minerals, economy.next_tag
                 spent = economy.spent
                 events = events._replace(created=economy.created)
@@ -232,10 +238,29 @@ class Simulator:
             return jax.tree_util.tree_map(lambda a, b: jnp.where(running, a, b), new,
                                           frozen), None
 
-        state, _ = jax.lax.scan(one_loop, state, None, length=self.step_mul)
+        def loops(state: EnvState) -> EnvState:
+            return jax.lax.scan(one_loop, state, None, length=self.step_mul)[0]
+
+        sizes = self._slot_sizes()
+        if sizes is None:
+            state = loops(state)
+        else:
+            need = slots_in_use(state.units.alive)
+            if game.has_production:
+                need = need + jnp.sum(production.creators(state.units), dtype=jnp.int32)
+            state = smallest_fit(need, sizes, functools.partial(_on_leading_slots, loops),
+                                 state)
         state = game.on_step(state)
         state = score.after_step(state.replace(episode_step=state.episode_step + 1))
         return self._explore(state)
+
+    def _slot_sizes(self) -> tuple[int, ...] | None:
+        """The map's `slot_sizes` where they hold for this step_mul: in an agent step of
+        at most `production.MIN_BUILD_LOOPS` loops, each creator makes at most one unit,
+        so the slots in use and one more per creator hold every unit of the step."""
+        if self.game.has_production and self.step_mul > production.MIN_BUILD_LOOPS:
+            return None
+        return self.game.slot_sizes
 
     def _explore(self, state: EnvState) -> EnvState:
         """Marks the map cells the player's units see as explored (fog maps only)."""
@@ -246,3 +271,11 @@ class Simulator:
         ys = h - 1 - jnp.arange(h, dtype=jnp.float32) + 0.5
         return state.replace(explored=state.explored | sight_grid(state.units, xs, ys,
                                                                     self.game.own_slots))
+
+
+def _on_leading_slots(run, size: int, state: EnvState) -> EnvState:
+    """`run(state)` with the state's units cut to their first `size` slots; the other
+    slots are kept as they are (the caller knows they are dead and stay dead)."""
+    out = run(state.replace(units=leading_slots(state.units, size)))
+    return out.replace(units=jax.tree.map(lambda full, head: full.at[:size].set(head),
+                                          state.units, out.units))

@@ -36,6 +36,11 @@ def leading_slots(tree, k: int | None):
     return tree if k is None else slot_rows(tree, slice(k))
 
 
+def slots_in_use(alive):
+    """int32: one past the last living slot of bool[N] `alive` (0 with none alive)."""
+    return jnp.max(jnp.where(alive, jnp.arange(1, alive.shape[-1] + 1), 0)).astype(jnp.int32)
+
+
 class Order(enum.IntEnum):
     """What a unit is doing. `NONE` is idle."""
 

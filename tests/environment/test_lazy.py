@@ -1,11 +1,12 @@
-"""`lazy_where` equals a plain `where`, unbatched, under vmap and under nested vmaps."""
+"""`lazy_where` equals a plain `where`, unbatched, under vmap and under nested vmaps;
+`smallest_fit` runs the smallest size that fits, per batch."""
 
 import jax
 import jax.numpy as jnp
 import numpy as np
 import pytest
 
-from sc2jax.environment.lazy import FEW_LANES_DIVISOR, lazy_where
+from sc2jax.environment.lazy import FEW_LANES_DIVISOR, lazy_where, smallest_fit
 
 
 def _compute(operand):
@@ -82,3 +83,43 @@ def test_large_batches_equal_where_whether_few_or_many_take_the_branch(taken):
     branches = [len(e.params["branches"]) for e in jaxpr.eqns[0].params["jaxpr"].eqns
                 if e.primitive.name == "cond"]
     assert branches == [3]  # none, few, every
+
+
+SIZES = (4, 8, 16)
+
+
+def _sized(size, operand):
+    """The size that ran, and the operand's first `size` entries summed (a result that
+    is the same for every size holding the operand's non-zero entries)."""
+    return {"size": jnp.int32(size), "sum": jnp.sum(operand[:size])}
+
+
+def _fit(need, operand):
+    return smallest_fit(need, SIZES, _sized, operand)
+
+
+@pytest.mark.parametrize("need, size", [(0, 4), (4, 4), (5, 8), (16, 16), (99, 16)])
+def test_smallest_fit_runs_the_smallest_size_that_fits(need, size):
+    operand = jnp.arange(16.0) * (jnp.arange(16) < min(need, 16))
+    out = jax.jit(_fit)(jnp.int32(need), operand)
+    assert int(out["size"]) == size
+    assert float(out["sum"]) == float(jnp.sum(operand))
+
+
+def test_smallest_fit_takes_the_batch_largest_need_under_vmap_and_nested_vmaps():
+    needs = jnp.asarray([[1, 3], [2, 6], [0, 0]])
+    operands = jnp.where(jnp.arange(16) < needs[..., None], 1.0, 0.0)
+    out = jax.jit(jax.vmap(_fit))(needs[0], operands[0])
+    np.testing.assert_array_equal(out["size"], [4, 4])
+    nested = jax.jit(jax.vmap(jax.vmap(_fit)))(needs, operands)
+    np.testing.assert_array_equal(nested["size"], np.full((3, 2), 8))
+    np.testing.assert_array_equal(nested["sum"], needs)
+    # One switch of three sizes in the program, under both vmaps: one size runs.
+    jaxpr = jax.make_jaxpr(jax.vmap(jax.vmap(_fit)))(needs, operands)
+    assert "select_n" not in str(jaxpr)
+
+
+@pytest.mark.parametrize("sizes", [(), (8, 4), (4, 4, 8)])
+def test_smallest_fit_rejects_sizes_that_do_not_ascend(sizes):
+    with pytest.raises(ValueError, match="ascending"):
+        smallest_fit(jnp.int32(1), sizes, _sized, jnp.zeros(16))

@@ -14,11 +14,11 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 
-from sc2jax.environment import FUNCTIONS, Simulator, score, to_dense
+from sc2jax.environment import FUNCTIONS, Simulator, production, score, to_dense
 from sc2jax.environment.minigames.economy import COMMAND_CENTER, GEYSERS, LEFT_FIELDS
 from sc2jax.environment.observation_tables import Player, ScoreCumulative
 from sc2jax.environment.protocol_enums import ActionResult
-from sc2jax.environment.state import Order, Owner, place
+from sc2jax.environment.state import Order, Owner, place, slots_in_use
 from sc2jax.environment.units import UnitType
 
 from .conftest import PARAMS, SMALL, compiled, small_sim
@@ -322,3 +322,35 @@ def test_bad_score_index_names_what_is_allowed():
     for bad in (-3, 13, 1.0):
         with pytest.raises(ValueError, match=r"score_index must be -2 \(the Blizzard score\)"):
             Simulator(CMAG, fmt=SMALL, score_index=bad)
+
+
+@pytest.mark.parametrize("marines, needs", [(10, [32, 33, 33]), (11, [33, 34, 34])])
+def test_leading_slots_play_the_same_game_as_all_slots(marines, needs):
+    """BuildMarines runs its game loops on the leading slots in use and one more per
+    unit that can create one (`slot_sizes` (32, 96, 200)). A start with marines in
+    slots 21 on, whose Command Center finishes an SCV in the first step, plays bit for
+    bit as the engine does on all 200 slots: with 10 marines at 32 slots, then at 96;
+    with 11 at 96, which the Command Center's room decides (at 32 the SCV would find no
+    free slot). Batches take their largest need: tests/environment/test_lazy.py."""
+    state, step = start(BM)
+    units, tag = place(state.units, 21 + np.arange(marines), UnitType.MARINE, Owner.SELF,
+                       jnp.asarray(COMMAND_CENTER) + jnp.stack(
+                           [jnp.linspace(-4.0, 4.0, marines), jnp.full(marines, -4.0)],
+                           axis=1), state.next_tag)
+    cc = slots(state, UnitType.COMMAND_CENTER)[0]
+    units = units.replace(queue=units.queue.at[cc, 0].set(UnitType.SCV),
+                          queue_work=units.queue_work.at[cc].set(270.0))
+    every = Simulator(BM, SMALL)
+    object.__setattr__(every, "_slot_sizes", lambda: None)  # The engine without sizes.
+    step_every = compiled(every)[1]
+    need = jax.jit(lambda u: slots_in_use(u.alive) + jnp.sum(production.creators(u)))
+    a = b = state.replace(units=units, next_tag=tag)
+    seen = []
+    for _ in range(3):
+        seen.append(int(need(a.units)))
+        (a, ts_a), (b, ts_b) = act(step, a, F.no_op(), BM), act(step_every, b, F.no_op(), BM)
+        for x, y in zip(jax.tree_util.tree_leaves((a, ts_a)),
+                        jax.tree_util.tree_leaves((b, ts_b))):
+            np.testing.assert_array_equal(np.asarray(x), np.asarray(y))
+    assert seen == needs
+    assert int(a.units.alive.sum()) == 22 + marines  # The new SCV.

@@ -65,6 +65,11 @@ class MiniGame:
       team_split: None where any slot can hold a unit of either side; else the player's
         units are only ever in the first `team_split` slots and the enemy's only in
         the rest, and combat looks at the pairs across the split alone.
+      slot_sizes: None, or ascending sizes ending at `num_slots`, for a map whose
+        slots fill up over an episode: the engine runs an agent step's game loops on
+        the leading slots in use and the room for the units the step can create,
+        rounded up to one of these sizes (`Simulator`). Not for maps with enemies,
+        whose weapon jitter is drawn per slot.
     """
 
     name: str
@@ -80,6 +85,18 @@ class MiniGame:
     own_slots: int | None = None
     field_slots: int | None = None
     team_split: int | None = None
+    slot_sizes: tuple[int, ...] | None = None
+
+    def __post_init__(self):
+        sizes = self.slot_sizes
+        if sizes is None:
+            return
+        smallest = max(self.collider_slots or 0, self.own_slots or 0, self.field_slots or 0)
+        if (list(sizes) != sorted(set(sizes)) or sizes[-1] != self.num_slots
+                or sizes[0] < smallest or self.has_enemies):
+            raise ValueError(f"{self.name}: slot_sizes must ascend from at least {smallest} "
+                             f"to num_slots ({self.num_slots}) on a map without enemies, "
+                             f"got {sizes!r}")
 
     def init(self, key) -> tuple[Units, Any, jax.Array]:
         """Returns the starting units, the script's state, and the next unit tag."""

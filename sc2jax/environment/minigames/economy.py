@@ -71,11 +71,11 @@ class EconomyGame(MiniGame):
     FIELDS: np.ndarray = np.zeros((0, 2), np.float32)
     GEYSERS: np.ndarray = np.zeros((0, 2), np.float32)
 
-    def __init__(self, name, time_limit, num_slots):
+    def __init__(self, name, time_limit, num_slots, slot_sizes):
         super().__init__(name=name, time_limit=time_limit, num_slots=num_slots,
                          geometry=flat_geometry(REGION_1), fog=False, camera=CAMERA,
                          unit_types=_UNIT_TYPES, starting_minerals=STARTING_MINERALS,
-                         has_enemies=False, field_slots=len(self.FIELDS))
+                         has_enemies=False, field_slots=len(self.FIELDS), slot_sizes=slot_sizes)
 
     @property
     def command_center(self) -> int:
@@ -108,7 +108,9 @@ class CollectMineralsAndGas(EconomyGame):
     GEYSERS = GEYSERS
 
     def __init__(self):
-        super().__init__("CollectMineralsAndGas", time_limit=420, num_slots=96)
+        # 33 units at the start, at most 56 alive in four of the scripted agent's episodes.
+        super().__init__("CollectMineralsAndGas", time_limit=420, num_slots=96,
+                         slot_sizes=(48, 96))
 
     def on_loop(self, state, events):
         collected = (state.score_cumulative[ScoreCumulative.collected_minerals]
@@ -120,7 +122,9 @@ class BuildMarines(EconomyGame):
     FIELDS = LEFT_FIELDS
 
     def __init__(self):
-        super().__init__("BuildMarines", time_limit=900, num_slots=200)
+        # 21 units at the start, about 190 at the scripted agent's end.
+        super().__init__("BuildMarines", time_limit=900, num_slots=200,
+                         slot_sizes=(32, 96, 200))
 
     @property
     def card_table(self) -> np.ndarray:
