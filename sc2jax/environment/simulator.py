@@ -276,6 +276,8 @@ class Simulator:
 def _on_leading_slots(run, size: int, state: EnvState) -> EnvState:
     """`run(state)` with the state's units cut to their first `size` slots; the other
     slots are kept as they are (the caller knows they are dead and stay dead)."""
+    if size == state.units.num_slots:
+        return run(state)
     out = run(state.replace(units=leading_slots(state.units, size)))
     return out.replace(units=jax.tree.map(lambda full, head: full.at[:size].set(head),
                                           state.units, out.units))
