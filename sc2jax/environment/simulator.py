@@ -245,14 +245,20 @@ class Simulator:
         if sizes is None:
             state = loops(state)
         else:
-            need = slots_in_use(state.units.alive)
-            if game.has_production:
-                need = need + jnp.sum(production.creators(state.units), dtype=jnp.int32)
-            state = smallest_fit(need, sizes, functools.partial(_on_leading_slots, loops),
-                                 state)
+            state = smallest_fit(self.slots_needed(state.units), sizes,
+                                 functools.partial(_on_leading_slots, loops), state)
         state = game.on_step(state)
         state = score.after_step(state.replace(episode_step=state.episode_step + 1))
         return self._explore(state)
+
+    def slots_needed(self, units) -> jax.Array:
+        """int32: the leading slots an agent step's game loops need: those in use, and
+        on maps with production one more per unit that can create one
+        (`production.creators`)."""
+        need = slots_in_use(units.alive)
+        if self.game.has_production:
+            need = need + jnp.sum(production.creators(units), dtype=jnp.int32)
+        return need
 
     def _slot_sizes(self) -> tuple[int, ...] | None:
         """The map's `slot_sizes` where they hold for this step_mul: in an agent step of

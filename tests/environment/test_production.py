@@ -14,11 +14,11 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 
-from sc2jax.environment import FUNCTIONS, Simulator, production, score, to_dense
+from sc2jax.environment import FUNCTIONS, Simulator, score, to_dense
 from sc2jax.environment.minigames.economy import COMMAND_CENTER, GEYSERS, LEFT_FIELDS
 from sc2jax.environment.observation_tables import Player, ScoreCumulative
 from sc2jax.environment.protocol_enums import ActionResult
-from sc2jax.environment.state import Order, Owner, place, slots_in_use
+from sc2jax.environment.state import Order, Owner, place
 from sc2jax.environment.units import UnitType
 
 from .conftest import PARAMS, SMALL, compiled, small_sim
@@ -343,7 +343,7 @@ def test_leading_slots_play_the_same_game_as_all_slots(marines, needs):
     every = Simulator(BM, SMALL)
     object.__setattr__(every, "_slot_sizes", lambda: None)  # The engine without sizes.
     step_every = compiled(every)[1]
-    need = jax.jit(lambda u: slots_in_use(u.alive) + jnp.sum(production.creators(u)))
+    need = jax.jit(small_sim(BM).slots_needed)
     a = b = state.replace(units=units, next_tag=tag)
     seen = []
     for _ in range(3):
