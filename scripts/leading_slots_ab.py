@@ -20,6 +20,7 @@ import numpy as np
 from absl import app, flags
 
 from sc2jax.environment import Simulator
+from sc2jax.environment.minigames import get_map
 from sc2jax.environment.specs import ObservationFormat
 from sc2jax.environment.state import slots_in_use
 from sc2jax.experiments.evaluation import make_policy
@@ -35,16 +36,15 @@ flags.DEFINE_integer("grow", 0, "Scripted-agent steps played before timing.")
 
 def _start(fmt: ObservationFormat, n: int):
     """The batch's state: fresh, or after `--grow` scripted steps."""
-    sim = Simulator(FLAGS.map, fmt)
-    state, ts = jax.vmap(sim.reset)(jax.random.split(jax.random.PRNGKey(0), n))
+    keys = jax.random.split(jax.random.PRNGKey(0), n)
     if not FLAGS.grow:
-        return state
+        return jax.vmap(Simulator(FLAGS.map, fmt).reset)(keys)[0]
     # The scripted agent reads every unit.
     seen = ObservationFormat(screen_size=FLAGS.size, minimap_size=FLAGS.size,
-                             use_feature_units=True, max_units=sim.game.num_slots)
+                             use_feature_units=True, max_units=get_map(FLAGS.map).num_slots)
     sim = Simulator(FLAGS.map, seen)
     policy = make_policy("scripted", FLAGS.map, seen)
-    state, ts = jax.vmap(sim.reset)(jax.random.split(jax.random.PRNGKey(0), n))
+    state, ts = jax.vmap(sim.reset)(keys)
 
     def body(carry, key):
         state, ts = carry
