@@ -1,11 +1,12 @@
-r"""The economy maps' leading-slot game loops against all slots, A/B in one process.
+r"""The economy maps on their leading slots against all slots, A/B in one process.
 
-BuildMarines and CollectMineralsAndGas run an agent step's game loops on the leading
-unit slots in use (`MiniGame.slot_sizes`); this times that engine against the same
-engine on every slot, round-robin in one process: `--steps` agent steps of
-`--num_envs` environments in one compiled `lax.scan`, the random agent's action, every
-layer rendered. `--grow=N` first plays N steps with the scripted agent (which builds up
-to about 190 units on BuildMarines), so the timed steps start from a crowded state.
+BuildMarines and CollectMineralsAndGas run an agent step's game loops, and render its
+observation, on the leading unit slots in use (`MiniGame.slot_sizes`); this times that
+engine against the same engine on every slot (`Simulator(use_slot_sizes=False)`),
+round-robin in one process: `--steps` agent steps of `--num_envs` environments in one
+compiled `lax.scan`, the random agent's action, every layer rendered. `--grow=N` first
+plays N steps with the scripted agent (which builds up to about 190 units on
+BuildMarines), so the timed steps start from a crowded state.
 Prints agent steps per second (best of `--rounds`) and the ratio.
 
     python scripts/leading_slots_ab.py --map=BuildMarines --size=64 --num_envs=64
@@ -80,8 +81,7 @@ def main(argv):
     in_use = np.asarray(jax.vmap(lambda u: slots_in_use(u.alive))(state.units))
     print(f"{FLAGS.map}, {FLAGS.size}², {n} environments, after {FLAGS.grow} scripted "
           f"steps: slots in use {in_use.min()}-{in_use.max()}")
-    leading, every = Simulator(FLAGS.map, fmt), Simulator(FLAGS.map, fmt)
-    object.__setattr__(every, "_slot_sizes", lambda: None)  # The engine on all slots.
+    leading, every = Simulator(FLAGS.map, fmt), Simulator(FLAGS.map, fmt, use_slot_sizes=False)
     runs = {"leading slots": _rollout(leading, n), "all slots": _rollout(every, n)}
     for run in runs.values():
         jax.block_until_ready(run(state, jax.random.PRNGKey(2)))

@@ -16,8 +16,8 @@ computes it only when it is used:
 Either way the result is the same as the plain `where`, bit for bit.
 
 `smallest_fit` runs a computation compiled for several sizes at the smallest size that
-fits (the economy maps' game loops on the unit slots in use, out of up to 200); under
-`vmap`, at the smallest that fits the whole batch.
+fits (the economy maps' game loops and observations on the unit slots in use, out of
+up to 200); under `vmap`, at the smallest that fits the whole batch.
 """
 
 from __future__ import annotations

@@ -70,6 +70,9 @@ class Simulator:
       score_multiplier: multiplies every reward.
       discount: the discount of MID steps (and of truncated LAST steps).
       allow_cheating_layers: fill the minimap `unit_type` layer.
+      use_slot_sizes: on maps with `slot_sizes` (the economy maps), run the game loops
+        and render the observation on the leading unit slots in use (the default);
+        False runs them on every slot, with the same results, slower (for checks).
     """
 
     map_name: str = "MoveToBeacon"
@@ -79,6 +82,7 @@ class Simulator:
     score_multiplier: float = 1.0
     discount: float = 1.0
     allow_cheating_layers: bool = False
+    use_slot_sizes: bool = True
 
     def __post_init__(self):
         game = get_map(self.map_name)
@@ -91,6 +95,8 @@ class Simulator:
                 BLIZZARD_SCORE <= self.score_index < NUM_SCORE_CUMULATIVE):
             raise ValueError(f"score_index must be -2 (the Blizzard score), -1 (win/loss) or "
                              f"in [0, {NUM_SCORE_CUMULATIVE - 1}], got {self.score_index!r}")
+        if not isinstance(self.use_slot_sizes, bool):
+            raise ValueError(f"use_slot_sizes must be a bool, got {self.use_slot_sizes!r}")
         if not 0.0 <= self.discount <= 1.0:
             raise ValueError(f"discount must be in [0, 1], got {self.discount!r}")
         object.__setattr__(self, "game", game)
@@ -165,8 +171,20 @@ class Simulator:
         return (state.outcome != Outcome.RUNNING) | truncated
 
     def observe(self, state: EnvState) -> dict:
-        """The padded observation of a state."""
-        return observe(state, self.renderer, self.card_table)
+        """The padded observation of a state.
+
+        On maps with `slot_sizes`, rendered from the leading slots in use: the slots
+        past the last living unit hold nothing the player can see.
+        """
+        sizes = self.game.slot_sizes if self.use_slot_sizes else None
+        if sizes is None:
+            return observe(state, self.renderer, self.card_table)
+        return smallest_fit(slots_in_use(state.units.alive), sizes, self._observe_leading,
+                            state)
+
+    def _observe_leading(self, size: int, state: EnvState) -> dict:
+        units = leading_slots(state.units, size)
+        return observe(state.replace(units=units), self.renderer, self.card_table)
 
     # Internals.
 
@@ -264,7 +282,8 @@ class Simulator:
         """The map's `slot_sizes` where they hold for this step_mul: in an agent step of
         at most `production.MIN_BUILD_LOOPS` loops, each creator makes at most one unit,
         so the slots in use and one more per creator hold every unit of the step."""
-        if self.game.has_production and self.step_mul > production.MIN_BUILD_LOOPS:
+        if not self.use_slot_sizes or (self.game.has_production
+                                      and self.step_mul > production.MIN_BUILD_LOOPS):
             return None
         return self.game.slot_sizes
 

@@ -340,8 +340,7 @@ def test_leading_slots_play_the_same_game_as_all_slots(marines, needs):
     cc = slots(state, UnitType.COMMAND_CENTER)[0]
     units = units.replace(queue=units.queue.at[cc, 0].set(UnitType.SCV),
                           queue_work=units.queue_work.at[cc].set(270.0))
-    every = Simulator(BM, SMALL)
-    object.__setattr__(every, "_slot_sizes", lambda: None)  # The engine without sizes.
+    every = Simulator(BM, SMALL, use_slot_sizes=False)
     step_every = compiled(every)[1]
     need = jax.jit(small_sim(BM).slots_needed)
     a = b = state.replace(units=units, next_tag=tag)
@@ -354,3 +353,9 @@ def test_leading_slots_play_the_same_game_as_all_slots(marines, needs):
             np.testing.assert_array_equal(np.asarray(x), np.asarray(y))
     assert seen == needs
     assert int(a.units.alive.sum()) == 22 + marines  # The new SCV.
+
+
+def test_bad_use_slot_sizes_names_what_is_allowed():
+    for bad in (0, "yes", None):
+        with pytest.raises(ValueError, match=r"use_slot_sizes must be a bool, got"):
+            Simulator(BM, fmt=SMALL, use_slot_sizes=bad)

@@ -67,9 +67,10 @@ class MiniGame:
         the rest, and combat looks at the pairs across the split alone.
       slot_sizes: None, or ascending sizes ending at `num_slots`, for a map whose
         slots fill up over an episode: the engine runs an agent step's game loops on
-        the leading slots in use and the room for the units the step can create,
-        rounded up to one of these sizes (`Simulator`). Not for maps with enemies,
-        whose weapon jitter is drawn per slot.
+        the leading slots in use and the room for the units the step can create, and
+        renders the observation on the leading slots in use, each rounded up to one of
+        these sizes (`Simulator`). Not for maps with enemies, whose weapon jitter is
+        drawn per slot.
     """
 
     name: str
