@@ -327,11 +327,12 @@ def test_bad_score_index_names_what_is_allowed():
 @pytest.mark.parametrize("marines, needs", [(10, [32, 33, 33]), (11, [33, 34, 34])])
 def test_leading_slots_play_the_same_game_as_all_slots(marines, needs):
     """BuildMarines runs its game loops on the leading slots in use and one more per
-    unit that can create one (`slot_sizes` (32, 96, 200)). A start with marines in
-    slots 21 on, whose Command Center finishes an SCV in the first step, plays bit for
-    bit as the engine does on all 200 slots: with 10 marines at 32 slots, then at 96;
-    with 11 at 96, which the Command Center's room decides (at 32 the SCV would find no
-    free slot). Batches take their largest need: tests/environment/test_lazy.py."""
+    unit that can create one (`slot_sizes` (32, 96, 200)), and observes the slots in
+    use. A start with marines in slots 21 on, whose Command Center finishes an SCV in
+    the first step, plays and is observed bit for bit as by the engine on all 200 slots
+    (`use_slot_sizes=False`): with 10 marines at 32 slots, then at 96; with 11 at 96,
+    which the Command Center's room decides (at 32 the SCV would find no free slot).
+    Batches take their largest need: tests/environment/test_lazy.py."""
     state, step = start(BM)
     units, tag = place(state.units, 21 + np.arange(marines), UnitType.MARINE, Owner.SELF,
                        jnp.asarray(COMMAND_CENTER) + jnp.stack(
