@@ -102,9 +102,9 @@ class PairBlock(NamedTuple):
 
 
 def pair_blocks(units: Units, data, team_split: int | None) -> list[PairBlock]:
-    """The pairs among which combat happens: all [N, N] pairs, or, where the player's
-    units are only ever in the first `team_split` slots and the enemy's only in the
-    rest, the two blocks across the split (the rows of the two together are all N
+    """The pairs among which combat happens: all [N, N] pairs, or, where one side's
+    units are only ever in the first `team_split` slots and the other side's only in
+    the rest, the two blocks across the split (the rows of the two together are all N
     slots, in order)."""
     n = units.num_slots
     if team_split is None:
@@ -176,7 +176,8 @@ def _select_targets(units: Units, data, block: PairBlock):
 def game_loop(units: Units, key, playable, bursts: bool = False, workers: bool = False,
               combat: bool = True, colliders: int | None = None,
               field_slots: int | None = None,
-              team_split: int | None = None) -> tuple[Units, LoopEvents]:
+              team_split: int | None = None,
+              jitter_slots: int | None = None) -> tuple[Units, LoopEvents]:
     """Advances all units by one game loop.
 
     Args:
@@ -192,9 +193,12 @@ def game_loop(units: Units, key, playable, bursts: bool = False, workers: bool =
         collide (`MiniGame.collider_slots`); collisions are resolved among those alone.
       field_slots: (static) None, or the number of leading slots that can hold mineral
         fields (`MiniGame.field_slots`); workers look for free fields among those alone.
-      team_split: (static) None, or S where the player's units are only ever in the
-        first S slots and the enemy's only in the rest (`MiniGame.team_split`); combat
+      team_split: (static) None, or S where one side's units are only ever in the
+        first S slots and the other side's only in the rest (`MiniGame.team_split`); combat
         then looks at the pairs across S alone (`pair_blocks`).
+      jitter_slots: (static) None, or the map's slot count where `units` are its leading
+        slots (`Simulator`'s views): the weapon jitter is drawn for that many slots and
+        cut, so that a slot's draw does not depend on how many slots run.
 
     Returns:
       The new units and the loop's events.
@@ -303,7 +307,7 @@ def game_loop(units: Units, key, playable, bursts: bool = False, workers: bool =
         dealt = jnp.concatenate([splash.sum(axis=1) for splash in splashes])
         hits = hits + jnp.where(exploding, dealt, 0.0)
         damage = damage + received(exploding)
-    jitter = jax.random.randint(key, (n,), -1, 3).astype(jnp.float32)
+    jitter = jax.random.randint(key, (jitter_slots or n,), -1, 3)[:n].astype(jnp.float32)
     ready = units.cooldown <= 0.0
     cooldown = jnp.where(fires, units.cooldown + data.cooldown + jitter - 1.0,
                          jnp.where(ready, 0.0, units.cooldown - 1.0))
@@ -425,19 +429,32 @@ def colliding(data):
     return (data.max_health > 0) | ((data.attributes & Attribute.STRUCTURE) > 0)
 
 
+# Collision pushes are summed in fixed point, in units of 2**-PUSH_BITS world units
+# (below a float32 position's resolution on a 64-unit map): integer sums do not depend
+# on the order of the additions, which XLA chooses by the array's length, so a game run
+# on its leading slots (`Simulator`) moves its units exactly as on all of them.
+PUSH_BITS = 20
+
+
 def _resolve_collisions(pos, alive, data):
     """Pushes overlapping ground units apart; immobile ones (structures, resources) don't
     move. Items that do not collide (`colliding`) are ignored.
 
     The x and y components are separate [N, N] arrays: a reduction over an [N, N, 2]
-    array is several times slower on XLA's CPU backend.
+    array is several times slower on XLA's CPU backend. Each push is at most both radii,
+    so N of them sum within int32 for every map (checked).
     """
     n = len(pos)
+    most = n * 2 * float(UNIT_DATA.radius.max()) * 2 ** PUSH_BITS
+    if most >= 2 ** 31:
+        raise ValueError(f"{n} colliding slots can overflow the int32 push sums")
     collides = alive & colliding(data)
     mobile = data.speed > 0
     dx = pos[:, None, 0] - pos[None, :, 0]
     dy = pos[:, None, 1] - pos[None, :, 1]
-    dist = jnp.sqrt(dx * dx + dy * dy + 1e-12)
+    # Not sqrt(dx * dx + dy * dy): XLA may fuse either product into the sum, and its
+    # choice depends on the fusion, so on N.
+    dist = jnp.hypot(dx, dy)
     overlap = data.radius[:, None] + data.radius[None, :] - dist
     pair = collides[:, None] & collides[None, :] & (overlap > 0) & ~jnp.eye(n, dtype=bool)
     # Share of the overlap i gives way: half between two mobile units, all against a wall.
@@ -447,5 +464,9 @@ def _resolve_collisions(pos, alive, data):
     angle = jnp.arange(n) * 2.4
     apart = dist > 1e-4
     along = lambda d, tie: jnp.where(apart, d / dist, tie[:, None] - tie[None, :])  # noqa: E731
-    return pos + jnp.stack([jnp.sum(along(dx, jnp.cos(angle)) * push, axis=1),
-                            jnp.sum(along(dy, jnp.sin(angle)) * push, axis=1)], axis=-1)
+
+    def total(d, tie):  # float32[N]: the pushes along one axis, summed in fixed point.
+        fixed = jnp.round(along(d, tie) * push * 2 ** PUSH_BITS).astype(jnp.int32)
+        return jnp.sum(fixed, axis=1).astype(jnp.float32) * 2 ** -PUSH_BITS
+
+    return pos + jnp.stack([total(dx, jnp.cos(angle)), total(dy, jnp.sin(angle))], axis=-1)

@@ -16,8 +16,9 @@ computes it only when it is used:
 Either way the result is the same as the plain `where`, bit for bit.
 
 `smallest_fit` runs a computation compiled for several sizes at the smallest size that
-fits (the economy maps' game loops and observations on the unit slots in use, out of
-up to 200); under `vmap`, at the smallest that fits the whole batch.
+fits (the game loops and observations of maps whose unit slots fill up, on the slots in
+use); under `vmap`, at the smallest that fits the whole batch. Where the size needed is
+a guess, the computation can say that it did not fit, and the next size runs.
 """
 
 from __future__ import annotations
@@ -94,41 +95,67 @@ def lazy_where(pred, compute: Callable[[Any], Out], operand: Any, otherwise: Out
     return select(pred, operand, otherwise)
 
 
-def smallest_fit(need, sizes: Sequence[int], compute: Callable[[int, Any], Out],
-                 operand: Any) -> Out:
+def smallest_fit(need, sizes: Sequence[int], compute: Callable[[int, Any], Any],
+                 operand: Any, *, checked: bool = False):
     """`compute(size, operand)` for the smallest of `sizes` that is at least `need` (the
-    largest where none is): every size is compiled, one runs.
+    largest where none is): every size is compiled, one runs (or, `checked`, a few).
 
     Under `vmap` one size serves the whole batch, the smallest that fits every
     environment's `need`, and so under nested `vmap`s (each level takes its batch's
     largest). The caller guarantees that every size that fits gives the same result, so
     that an environment's result does not depend on the rest of its batch.
 
+    With `checked`, `compute` also says whether its size was enough, for a `need` that
+    is a good guess rather than a bound: `compute(size, operand)` returns `(out, fits)`,
+    and where `fits` is False (for any environment of the batch) the next size runs, up
+    to the largest, whose result is taken as it is. One call site runs every try (a
+    `while_loop` around the `switch`), so each size is compiled once.
+
     Args:
       need: int32 scalar.
       sizes: ascending static ints.
       compute: (size, operand) -> a pytree of the same structure, shapes and dtypes for
-        every size. It must take every traced value it needs through `operand`.
+        every size; with `checked`, a pair (that pytree, bool scalar). It must take every
+        traced value it needs through `operand`.
       operand: a pytree of arrays.
+
+    Returns:
+      The pytree (without the `fits` of `checked`).
     """
     sizes = tuple(sizes)
     if not sizes or list(sizes) != sorted(set(sizes)):
         raise ValueError(f"sizes must be ascending and distinct, got {sizes!r}")
     bounds = np.asarray(sizes[:-1], np.int32)
+    branches = [functools.partial(compute, s) for s in sizes]
 
     @jax.custom_batching.custom_vmap
     def run(need, operand):
         index = jnp.sum(jnp.asarray(bounds) < need).astype(jnp.int32)
-        return jax.lax.switch(index, [functools.partial(compute, s) for s in sizes], operand)
+        if not checked:
+            return jax.lax.switch(index, branches, operand)
+        last = len(sizes) - 1
+
+        def attempt(carry):
+            index, _, _ = carry
+            out, fits = jax.lax.switch(index, branches, operand)
+            return index + 1, out, fits | (index == last)
+
+        shapes = jax.eval_shape(branches[-1], operand)[0]
+        nothing = jax.tree_util.tree_map(lambda s: jnp.zeros(s.shape, s.dtype), shapes)
+        return jax.lax.while_loop(lambda carry: ~carry[2], attempt,
+                                  (index, nothing, jnp.bool_(False)))[1]
 
     @run.def_vmap
     def run_batched(axis_size, in_batched, need, operand):
         operand = jax.tree_util.tree_map(
             lambda x, b: x if b else jnp.broadcast_to(x, (axis_size,) + x.shape), operand,
             in_batched[1])
-        out = smallest_fit(jnp.max(need), sizes,
-                           lambda size, op: jax.vmap(functools.partial(compute, size))(op),
-                           operand)
+
+        def batched(size, op):
+            out = jax.vmap(functools.partial(compute, size))(op)
+            return (out[0], jnp.all(out[1])) if checked else out
+
+        out = smallest_fit(jnp.max(need), sizes, batched, operand, checked=checked)
         return out, jax.tree_util.tree_map(lambda _: True, out)
 
     return run(need, operand)

@@ -70,7 +70,7 @@ class Simulator:
       score_multiplier: multiplies every reward.
       discount: the discount of MID steps (and of truncated LAST steps).
       allow_cheating_layers: fill the minimap `unit_type` layer.
-      use_slot_sizes: on maps with `slot_sizes` (the economy maps), run the game loops
+      use_slot_sizes: on maps with `slot_sizes` (the economy and wave maps), run the game loops
         and render the observation on the leading unit slots in use (the default);
         False runs them on every slot, with the same results, slower (for checks).
     """
@@ -234,7 +234,8 @@ class Simulator:
                                       combat=game.has_enemies,
                                       colliders=game.collider_slots,
                                       field_slots=game.field_slots,
-                                      team_split=game.team_split)
+                                      team_split=game.team_split,
+                                      jitter_slots=game.num_slots)
             minerals = state.minerals + events.minerals.astype(jnp.int32)
             next_tag, spent = state.next_tag, jnp.int32(0)
             if game.has_production:
@@ -253,39 +254,40 @@ class Simulator:
             timer = (new.game_loop >= game.time_limit_loops) & (new.outcome == Outcome.RUNNING)
             new = new.replace(outcome=jnp.where(timer, int(Outcome.VICTORY), new.outcome))
             frozen = state.replace(game_loop=state.game_loop + 1)
-            return jax.tree_util.tree_map(lambda a, b: jnp.where(running, a, b), new,
-                                          frozen), None
+            new = jax.tree_util.tree_map(lambda a, b: jnp.where(running, a, b), new, frozen)
+            return new, new.units.alive[-1]
 
-        def loops(state: EnvState) -> EnvState:
-            return jax.lax.scan(one_loop, state, None, length=self.step_mul)[0]
+        def loops(state: EnvState):
+            """The game loops, and whether the units' last slot stayed free unless it
+            was in use from the start (`_on_leading_slots`)."""
+            start = state.units.alive[-1]
+            state, last = jax.lax.scan(one_loop, state, None, length=self.step_mul)
+            return state, ~jnp.any(last) | start
 
-        sizes = self._slot_sizes()
+        sizes = self.game.slot_sizes if self.use_slot_sizes else None
         if sizes is None:
-            state = loops(state)
+            state = loops(state)[0]
         else:
             state = smallest_fit(self.slots_needed(state.units), sizes,
-                                 functools.partial(_on_leading_slots, loops), state)
+                                 functools.partial(_on_leading_slots, loops), state,
+                                 checked=True)
         state = game.on_step(state)
         state = score.after_step(state.replace(episode_step=state.episode_step + 1))
         return self._explore(state)
 
     def slots_needed(self, units) -> jax.Array:
-        """int32: the leading slots an agent step's game loops need: those in use, and
-        on maps with production one more per unit that can create one
-        (`production.creators`)."""
-        need = slots_in_use(units.alive)
+        """int32: the leading slots an agent step's game loops are first tried on: those
+        in use, and room for the units the step can create: on maps with production one
+        slot per unit that can create one (`production.creators`; each makes at most
+        one in `production.MIN_BUILD_LOOPS` loops), and the script's `spawn_room`.
+
+        The room is a guess that holds for most steps (a wave can follow another
+        within a step; a long step can train several units), not a bound: a run whose
+        last slot fills is run again on more slots (`_on_leading_slots`)."""
+        need = slots_in_use(units.alive) + self.game.spawn_room
         if self.game.has_production:
             need = need + jnp.sum(production.creators(units), dtype=jnp.int32)
         return need
-
-    def _slot_sizes(self) -> tuple[int, ...] | None:
-        """The map's `slot_sizes` where they hold for this step_mul: in an agent step of
-        at most `production.MIN_BUILD_LOOPS` loops, each creator makes at most one unit,
-        so the slots in use and one more per creator hold every unit of the step."""
-        if not self.use_slot_sizes or (self.game.has_production
-                                      and self.step_mul > production.MIN_BUILD_LOOPS):
-            return None
-        return self.game.slot_sizes
 
     def _explore(self, state: EnvState) -> EnvState:
         """Marks the map cells the player's units see as explored (fog maps only)."""
@@ -298,11 +300,18 @@ class Simulator:
                                                                     self.game.own_slots))
 
 
-def _on_leading_slots(run, size: int, state: EnvState) -> EnvState:
+def _on_leading_slots(run, size: int, state: EnvState):
     """`run(state)` with the state's units cut to their first `size` slots; the other
-    slots are kept as they are (the caller knows they are dead and stay dead)."""
+    slots are kept as they are (the caller knows they are dead).
+
+    `run` returns (state, fits). The cut run is the whole run where no unit needs a
+    slot past the cut: where one would, every slot of the cut is taken (units are
+    created in the first free slots, and none dies in a loop after its creations), so
+    the last slot fills. `fits` is False where it did, unless it was in use from the
+    start (then the step can create nothing: `Simulator.slots_needed` leaves room).
+    """
     if size == state.units.num_slots:
         return run(state)
-    out = run(state.replace(units=leading_slots(state.units, size)))
+    out, fits = run(state.replace(units=leading_slots(state.units, size)))
     return out.replace(units=jax.tree.map(lambda full, head: full.at[:size].set(head),
-                                          state.units, out.units))
+                                          state.units, out.units)), fits

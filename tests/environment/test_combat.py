@@ -7,6 +7,7 @@ numbers are the game's (reference/pysc2_facts.md §7): marine 6 damage, range 5,
 marine and zergling radius 0.375, roach 0.5; weapon jitter -1..+2 loops per shot.
 """
 
+import dataclasses
 import functools
 
 import jax
@@ -14,13 +15,14 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 
+from sc2jax.environment import FUNCTIONS, to_dense
 from sc2jax.environment.agents import random_action
 from sc2jax.environment.dynamics import LoopEvents, game_loop
 from sc2jax.environment.minigames import get_map
 from sc2jax.environment.minigames.wave_combat import LEFT, MARINE_SLOTS, RIGHT, lineup_offset
-from sc2jax.environment.state import Order, Outcome, Owner
+from sc2jax.environment.state import Order, Outcome, Owner, place
 
-from .conftest import PARAMS, compiled, small_sim
+from .conftest import PARAMS, compiled, random_actor, small_sim
 from .test_mechanics import make_units, with_orders
 
 SLOTS = 8
@@ -152,9 +154,9 @@ def test_combat_across_a_team_split_is_combat_over_all_pairs():
 @pytest.mark.parametrize("name", ["FindAndDefeatZerglings", "DefeatRoaches",
                                   "DefeatZerglingsAndBanelings"])
 def test_each_side_stays_on_its_side_of_the_team_split(name):
-    # The maps that declare `team_split` keep the player's units before it and the
-    # enemy's after it, through play and a respawn or wave reset (every enemy killed at
-    # step 6).
+    # The maps that declare `team_split` keep one side's units before it and the
+    # other's after it (FindAndDefeatZerglings the player's first, the wave maps the
+    # enemy's), through play and a respawn or wave reset (every enemy killed at step 6).
     sim = small_sim(name)
     split = sim.game.team_split
     reset, step = compiled(sim)
@@ -169,10 +171,11 @@ def test_each_side_stays_on_its_side_of_the_team_split(name):
         state, ts = step(state, act(k, ts.observation["available_actions"]), PARAMS)
         states.append(state)
     assert bool((states[7].units.alive & (states[7].units.owner == ENEMY)).any())
+    front, back = (SELF, ENEMY) if name == "FindAndDefeatZerglings" else (ENEMY, SELF)
     for s in states:
         alive, owner = np.asarray(s.units.alive), np.asarray(s.units.owner)
-        assert not (alive[split:] & (owner[split:] == SELF)).any()
-        assert not (alive[:split] & (owner[:split] == ENEMY)).any()
+        assert (owner[:split][alive[:split]] == front).all()
+        assert (owner[split:][alive[split:]] == back).all()
 
 
 @functools.cache
@@ -192,9 +195,12 @@ def test_initial_lineup_and_sides():
         units, _, tag = init(jax.random.PRNGKey(seed))
         pos = np.asarray(units.pos)
         alive = np.asarray(units.alive)
-        assert alive[:9].all() and not alive[9:MARINE_SLOTS].any() and alive[MARINE_SLOTS:].all()
-        assert np.asarray(units.selected[:9]).all() and int(tag) == 13
-        marines, roaches = pos[:9], pos[MARINE_SLOTS:]
+        # The four roaches, then nine of the 64 marine slots.
+        assert game.num_slots == 4 + MARINE_SLOTS and game.team_split == 4
+        assert alive[:13].all() and not alive[13:].any()
+        assert np.asarray(units.selected[4:13]).all() and int(tag) == 13
+        np.testing.assert_array_equal(units.tag[:13], [9, 10, 11, 12] + list(range(9)))
+        marines, roaches = pos[4:13], pos[:4]
         np.testing.assert_allclose(marines[:, 0], marines[0, 0])
         np.testing.assert_allclose(marines[:, 1] - marines[0, 1], [0, 1, -1, 2, -2, 3, -3, 4, -4],
                                    atol=1e-5)
@@ -213,62 +219,122 @@ def test_wave_reset_keeps_survivors_health(name, reward, fresh):
     game, _, on_loop = _script(name)
     state = _state(name)
     units = state.units
-    n = game.num_slots
+    n, first = game.num_slots, game.team_split
+    m = first + np.arange(12)  # The first 12 marine slots.
     # Marines 2 and 5 died earlier; marine 1 is hurt; this loop the last enemies and
     # marine 7 die.
     alive = np.asarray(units.alive).copy()
-    alive[[2, 5, 7]] = False
-    alive[MARINE_SLOTS:] = False
+    alive[m[[2, 5, 7]]] = False
+    alive[:first] = False
     health = np.asarray(units.health).copy()
-    health[1], health[8] = 17.0, 3.0
+    health[m[1]], health[m[8]] = 17.0, 3.0
     died = np.zeros(n, bool)
-    died[MARINE_SLOTS:] = True
-    died[7] = True
+    died[:first] = True
+    died[m[7]] = True
     old_tags = np.asarray(units.tag)
     state = state.replace(units=units.replace(alive=jnp.asarray(alive),
                                               health=jnp.asarray(health)),
                           score=jnp.int32(100))
     new = on_loop(state, LoopEvents.none(n, died))
-    enemies = len(game.ENEMIES)
-    assert int(new.score) == 100 + reward * enemies - 1
+    assert first == len(game.ENEMIES)
+    assert int(new.score) == 100 + reward * first - 1
     assert int(new.outcome) == Outcome.RUNNING
     u = jax.device_get(new.units)
-    marines = np.flatnonzero(u.alive[:MARINE_SLOTS])
+    marines = np.flatnonzero(u.alive[first:]) + first
     # Six survivors (0, 1, 3, 4, 6, 8) keep their health; the fresh ones fill the first
     # free slots at full health.
-    assert marines.tolist() == sorted([0, 1, 3, 4, 6, 8] + [2, 5, 7, 9, 10, 11][:fresh])
-    assert u.health[[0, 1, 3, 4, 6, 8]].tolist() == [45.0, 17.0, 45.0, 45.0, 45.0, 3.0]
+    kept = m[[0, 1, 3, 4, 6, 8]]
+    assert marines.tolist() == sorted(kept.tolist() + m[[2, 5, 7, 9, 10, 11][:fresh]].tolist())
+    assert u.health[kept].tolist() == [45.0, 17.0, 45.0, 45.0, 45.0, 3.0]
     assert (u.health[marines] == 45.0).sum() == 4 + fresh
     # Replaced: new tags, survivors first; all selected, idle, in one line.
     tags = u.tag[marines]
     assert tags.min() > old_tags.max() and len(set(tags.tolist())) == len(marines)
-    assert u.tag[[0, 1, 3, 4, 6, 8]].tolist() == sorted(u.tag[[0, 1, 3, 4, 6, 8]].tolist())
-    assert u.selected[marines].all() and not u.selected[MARINE_SLOTS:].any()
+    assert u.tag[kept].tolist() == sorted(u.tag[kept].tolist())
+    assert u.selected[marines].all() and not u.selected[:first].any()
     assert (u.orders[marines] == Order.NONE).all()
     np.testing.assert_allclose(u.pos[marines, 0], u.pos[marines[0], 0])
     # A new wave at full health on the other side.
-    assert u.alive[MARINE_SLOTS:].all()
-    np.testing.assert_array_equal(u.health[MARINE_SLOTS:], [
-        {3: 145.0, 2: 35.0, 4: 30.0}[t] for t in u.type[MARINE_SLOTS:]])
-    assert (u.pos[MARINE_SLOTS, 0] < 32) != (u.pos[marines[0], 0] < 32)
-    assert int(new.next_tag) == int(state.next_tag) + len(marines) + enemies
+    assert u.alive[:first].all()
+    np.testing.assert_array_equal(u.health[:first], [
+        {3: 145.0, 2: 35.0, 4: 30.0}[t] for t in u.type[:first]])
+    assert (u.pos[0, 0] < 32) != (u.pos[marines[0], 0] < 32)
+    assert int(new.next_tag) == int(state.next_tag) + len(marines) + first
+    # The empty marine slots are left as they were.
+    empty = np.setdiff1d(np.arange(first, n), marines)
+    for before, after in zip(jax.tree_util.tree_leaves(jax.device_get(units)),
+                             jax.tree_util.tree_leaves(u)):
+        np.testing.assert_array_equal(np.asarray(before)[empty], np.asarray(after)[empty])
 
 
 def test_wave_reset_adds_only_what_the_slots_hold_and_defeat_comes_first():
     game, _, on_loop = _script("DefeatRoaches")
     state = _state("DefeatRoaches", seed=1)
-    n = game.num_slots
+    n, first = game.num_slots, game.team_split
     alive = np.zeros(n, bool)
-    alive[:MARINE_SLOTS - 2] = True
+    alive[first:n - 2] = True
     died = np.zeros(n, bool)
-    died[MARINE_SLOTS:] = True
+    died[:first] = True
     full = state.replace(units=state.units.replace(alive=jnp.asarray(alive)))
     new = on_loop(full, LoopEvents.none(n, died))
-    assert int(np.asarray(new.units.alive[:MARINE_SLOTS]).sum()) == MARINE_SLOTS
+    assert int(np.asarray(new.units.alive[first:]).sum()) == MARINE_SLOTS
     # The last marine and the last roach die on the same loop: defeat, no new wave.
     dead = state.replace(units=state.units.replace(alive=jnp.zeros(n, bool)))
-    died[:9] = True
+    died[first:first + 9] = True
     new = on_loop(dead, LoopEvents.none(n, died))
     assert int(new.outcome) == Outcome.DEFEAT
     assert int(new.score) == 40 - 9
     assert not np.asarray(new.units.alive).any()
+
+
+def _wave_about_to_come():
+    """A DefeatRoaches state with 14 marines (slots 4-17) whose roaches are all dead:
+    the next loop's wave makes 19 marines."""
+    state = _state("DefeatRoaches", seed=3)
+    units, tag = place(state.units, 13 + np.arange(5), M, SELF,
+                       state.units.pos[4:9] + jnp.asarray([2.0, 0.0]), state.next_tag)
+    return state.replace(units=units.replace(alive=units.alive.at[:4].set(False)),
+                         next_tag=tag)
+
+
+def _assert_same(a, b):
+    for x, y in zip(jax.tree_util.tree_leaves(a), jax.tree_util.tree_leaves(b)):
+        np.testing.assert_array_equal(np.asarray(x), np.asarray(y))
+
+
+def test_wave_maps_play_on_their_leading_slots_as_on_all_slots():
+    """DefeatRoaches runs its game loops and observation on the roaches and the leading
+    marine slots in use (`slot_sizes` 4 + (16, 32, 64)), with room for a wave's 5
+    reinforcements: before a wave that makes 19 marines, the step runs on 36 slots, and
+    plays and is observed bit for bit as on all 68 (`use_slot_sizes=False`), and so
+    do random steps after it."""
+    sim = small_sim("DefeatRoaches")
+    leading = compiled(sim)[1]
+    every = jax.jit(dataclasses.replace(sim, use_slot_sizes=False).step)
+    state = _wave_about_to_come()
+    assert int(jax.jit(sim.slots_needed)(state.units)) == 18 + 5
+    act = random_actor(sim.fmt.types)
+    a = b = state
+    ts = None
+    for i in range(6):
+        action = act(jax.random.PRNGKey(i), ts.observation["available_actions"]) if ts else (
+            to_dense(FUNCTIONS.no_op(), sim.fmt.types))
+        (a, ts), (b, ts_b) = leading(a, action, PARAMS), every(b, action, PARAMS)
+        _assert_same((a, ts), (b, ts_b))
+        if i == 0:
+            assert int(a.units.alive[4:].sum()) == 19 and bool(a.units.alive[:4].all())
+
+
+def test_a_run_whose_last_slot_fills_runs_again_on_more_slots():
+    """Without room for the wave, the step of the test above is first tried on 20 slots
+    (16 for 19 marines), where the wave fills the last slot: the run is tried again on
+    36 and matches the run on all slots (the game loops, `Simulator.advance`)."""
+    sim = dataclasses.replace(small_sim("DefeatRoaches"))  # A game of its own.
+    object.__setattr__(sim.game, "spawn_room", 0)
+    state = _wave_about_to_come()
+    assert int(jax.jit(sim.slots_needed)(state.units)) == 18
+    action = to_dense(FUNCTIONS.no_op(), sim.fmt.types)
+    leading = jax.jit(sim.advance)(state, action)
+    every = jax.jit(dataclasses.replace(sim, use_slot_sizes=False).advance)(state, action)
+    _assert_same(leading, every)
+    assert int(leading.units.alive[4:].sum()) == 19

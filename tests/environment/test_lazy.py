@@ -123,3 +123,36 @@ def test_smallest_fit_takes_the_batch_largest_need_under_vmap_and_nested_vmaps()
 def test_smallest_fit_rejects_sizes_that_do_not_ascend(sizes):
     with pytest.raises(ValueError, match="ascending"):
         smallest_fit(jnp.int32(1), sizes, _sized, jnp.zeros(16))
+
+
+def _checked(size, operand):
+    """`_sized`, and whether every non-zero entry lies within the size."""
+    return _sized(size, operand), jnp.all(operand[size:] == 0)
+
+
+def _fit_checked(need, operand):
+    return smallest_fit(need, SIZES, _checked, operand, checked=True)
+
+
+@pytest.mark.parametrize("need, used, size", [(0, 0, 4), (1, 6, 8), (5, 6, 8), (1, 12, 16),
+                                              (1, 16, 16), (9, 2, 16)])
+def test_checked_smallest_fit_tries_larger_sizes_until_one_fits(need, used, size):
+    """`need` is a guess: where a size does not fit, the next runs (the largest is
+    taken as it is); a guess larger than needed is still the size that runs."""
+    operand = jnp.where(jnp.arange(16) < used, 1.0, 0.0)
+    out = jax.jit(_fit_checked)(jnp.int32(need), operand)
+    assert int(out["size"]) == size
+    assert float(out["sum"]) == used
+
+
+def test_checked_smallest_fit_retries_the_whole_batch_and_compiles_each_size_once():
+    needs = jnp.asarray([[1, 1], [2, 2]])
+    used = jnp.asarray([[1, 2], [3, 9]])
+    operands = jnp.where(jnp.arange(16) < used[..., None], 1.0, 0.0)
+    out = jax.jit(jax.vmap(_fit_checked))(needs[0], operands[0])
+    np.testing.assert_array_equal(out["size"], [4, 4])
+    nested = jax.jit(jax.vmap(jax.vmap(_fit_checked)))(needs, operands)
+    np.testing.assert_array_equal(nested["size"], np.full((2, 2), 16))
+    np.testing.assert_array_equal(nested["sum"], used)
+    jaxpr = str(jax.make_jaxpr(jax.vmap(jax.vmap(_fit_checked)))(needs, operands))
+    assert jaxpr.count("while[") == 1 and jaxpr.count("cond[") == 1

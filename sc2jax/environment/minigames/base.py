@@ -62,15 +62,16 @@ class MiniGame:
       field_slots: None where any slot can hold a mineral field; else mineral fields are
         only ever in the first `field_slots` slots (none is ever created), and
         workers look for free fields among those alone.
-      team_split: None where any slot can hold a unit of either side; else the player's
-        units are only ever in the first `team_split` slots and the enemy's only in
-        the rest, and combat looks at the pairs across the split alone.
+      team_split: None where any slot can hold a unit of either side; else one side's
+        units are only ever in the first `team_split` slots and the other side's only
+        in the rest, and combat looks at the pairs across the split alone.
       slot_sizes: None, or ascending sizes ending at `num_slots`, for a map whose
-        slots fill up over an episode: the engine runs an agent step's game loops on
-        the leading slots in use and the room for the units the step can create, and
-        renders the observation on the leading slots in use, each rounded up to one of
-        these sizes (`Simulator`). Not for maps with enemies, whose weapon jitter is
-        drawn per slot.
+        units fill its slots from the front, leaving most of them empty for much of an
+        episode: the engine runs an agent step's game loops on the leading slots in use
+        and the room for the units the step can create, and renders the observation on
+        the leading slots in use, each rounded up to one of these sizes (`Simulator`).
+      spawn_room: the most units the script creates at once (a wave's reinforcements):
+        room the engine leaves for them in the slots an agent step needs.
     """
 
     name: str
@@ -87,17 +88,18 @@ class MiniGame:
     field_slots: int | None = None
     team_split: int | None = None
     slot_sizes: tuple[int, ...] | None = None
+    spawn_room: int = 0
 
     def __post_init__(self):
         sizes = self.slot_sizes
         if sizes is None:
             return
-        smallest = max(self.collider_slots or 0, self.own_slots or 0, self.field_slots or 0)
-        if (list(sizes) != sorted(set(sizes)) or sizes[-1] != self.num_slots
-                or sizes[0] < smallest or self.has_enemies):
-            raise ValueError(f"{self.name}: slot_sizes must ascend from at least {smallest} "
-                             f"to num_slots ({self.num_slots}) on a map without enemies, "
-                             f"got {sizes!r}")
+        smallest = max(self.collider_slots or 0, self.own_slots or 0, self.field_slots or 0,
+                       self.team_split or 0)
+        if list(sizes) != sorted(set(sizes)) or sizes[-1] != self.num_slots or (
+                sizes[0] <= smallest):
+            raise ValueError(f"{self.name}: slot_sizes must ascend from above {smallest} "
+                             f"to num_slots ({self.num_slots}), got {sizes!r}")
 
     def init(self, key) -> tuple[Units, Any, jax.Array]:
         """Returns the starting units, the script's state, and the next unit tag."""

@@ -19,8 +19,12 @@ reference/pysc2_facts.md §4):
 The enemies are created idle and fight as idle units do (`dynamics`): they acquire
 marines that come within range, and turn on whoever attacks them or an ally near them.
 
-Marines occupy slots [0, MARINE_SLOTS); a wave reset that would exceed them adds fewer
-reinforcements (docs/fidelity.md).
+The enemies occupy the first slots, one per `ENEMIES` entry, and the marines the
+MARINE_SLOTS after them; a wave reset that would exceed those adds fewer reinforcements
+(docs/fidelity.md). The marines fill their slots from the front, and for most of an
+episode most are empty: the engine runs the game on the leading slots in use
+(`slot_sizes`). So the script reads the marines' slots from the units it is given: all
+the slots past the enemies'.
 """
 
 from __future__ import annotations
@@ -40,6 +44,7 @@ RIGHT = (38.0207, 25.0427, 42.0351, 31.0773)  # Spawn Region Right (region 5).
 CAMERA = (33.0, 25.0)  # centre(region 1) + 3 at 270 degrees.
 START_MARINES = 9
 MARINE_SLOTS = 64
+MARINE_SIZES = (16, 32, MARINE_SLOTS)  # The marine slots the engine runs on.
 
 # Ten small units created at one point: the centre, a ring of six at one diameter
 # (0.75), and three at sqrt(3) diameters.
@@ -90,59 +95,59 @@ class WaveCombat(MiniGame):
     REINFORCEMENTS = 0
 
     def __init__(self, name):
-        super().__init__(name=name, time_limit=120, num_slots=MARINE_SLOTS + len(self.ENEMIES),
+        enemies = len(self.ENEMIES)
+        super().__init__(name=name, time_limit=120, num_slots=enemies + MARINE_SLOTS,
                          geometry=flat_geometry(REGION_1), fog=False, camera=CAMERA,
                          unit_types=(UnitType.MARINE,) + tuple(sorted(set(self.ENEMIES))),
-                         team_split=MARINE_SLOTS)
-
-    @property
-    def enemy_slots(self) -> jax.Array:
-        return jnp.arange(MARINE_SLOTS, self.num_slots)
+                         team_split=enemies,
+                         slot_sizes=tuple(enemies + m for m in MARINE_SIZES),
+                         spawn_room=self.REINFORCEMENTS)
 
     def _spawn_enemies(self, units: Units, point, next_tag):
-        return place(units, self.enemy_slots, jnp.asarray(self.ENEMIES, jnp.int32), Owner.ENEMY,
-                     point + jnp.asarray(self.OFFSETS), next_tag)
+        return place(units, jnp.arange(len(self.ENEMIES)), jnp.asarray(self.ENEMIES, jnp.int32),
+                     Owner.ENEMY, point + jnp.asarray(self.OFFSETS), next_tag)
 
     def init(self, key):
         marine_point, enemy_point = draw_sides(key)
         units = Units.empty(self.num_slots)
-        marines = jnp.arange(START_MARINES)
-        units, tag = place(units, marines, UnitType.MARINE, Owner.SELF,
-                           lined_up(marine_point, marines), 0, selected=True)
+        rank = jnp.arange(START_MARINES)
+        units, tag = place(units, self.team_split + rank, UnitType.MARINE, Owner.SELF,
+                           lined_up(marine_point, rank), 0, selected=True)
         units, tag = self._spawn_enemies(units, enemy_point, tag)
         return units, (), tag
 
     def wave_reset(self, state):
-        """The next wave: survivors replaced (keeping health), reinforcements, a new side,
-        the marines lined up and selected, new enemies."""
+        """The next wave: survivors replaced (keeping health), reinforcements in the
+        first free slots, a new side, the marines lined up and selected, new enemies.
+        Only the marines' slots are written: the empty slots stay as they were."""
         key, sub = jax.random.split(state.key)
         marine_point, enemy_point = draw_sides(sub)
-        old = state.units
-        survivors = old.alive[:MARINE_SLOTS]
+        old, first = state.units, self.team_split
+        survivors = old.alive[first:]
         free_rank = jnp.cumsum(~survivors) - 1
         fresh = ~survivors & (free_rank < self.REINFORCEMENTS)
         marines = survivors | fresh
         rank = jnp.where(survivors, jnp.cumsum(survivors) - 1, jnp.sum(survivors) + free_rank)
-        units, _ = place(old, jnp.arange(MARINE_SLOTS), UnitType.MARINE, Owner.SELF,
-                         lined_up(marine_point, rank), 0, selected=marines)
-        full = UNIT_DATA.max_health[UnitType.MARINE]
-        health = jnp.where(survivors, old.health[:MARINE_SLOTS], full)
-        units = units.replace(
-            alive=units.alive.at[:MARINE_SLOTS].set(marines),
-            tag=units.tag.at[:MARINE_SLOTS].set(jnp.where(marines, state.next_tag + rank, 0)),
-            health=units.health.at[:MARINE_SLOTS].set(jnp.where(marines, health, 0.0)))
+        # The marines' slots; the others are out of range, which `place` ignores.
+        slots = jnp.where(marines, first + jnp.arange(survivors.shape[0]), old.num_slots)
+        units, _ = place(old, slots, UnitType.MARINE, Owner.SELF,
+                         lined_up(marine_point, rank), 0, selected=True)
+        health = jnp.where(survivors, old.health[first:], UNIT_DATA.max_health[UnitType.MARINE])
+        units = units.replace(tag=units.tag.at[slots].set(state.next_tag + rank, mode="drop"),
+                              health=units.health.at[slots].set(health, mode="drop"))
         units, tag = self._spawn_enemies(units, enemy_point,
                                          state.next_tag + jnp.sum(marines, dtype=jnp.int32))
         return state.replace(units=units, next_tag=tag, key=key)
 
     def on_loop(self, state, events):
-        kills = jnp.sum(events.died[MARINE_SLOTS:])
-        losses = jnp.sum(events.died[:MARINE_SLOTS])
+        first = self.team_split
+        kills = jnp.sum(events.died[:first])
+        losses = jnp.sum(events.died[first:])
         units = state.units
-        defeat = ~units.alive[:MARINE_SLOTS].any()
+        defeat = ~units.alive[first:].any()
         state = state.replace(score=state.score + self.KILL_REWARD * kills - losses,
                               outcome=jnp.where(defeat, int(Outcome.DEFEAT), state.outcome))
-        wave = ~defeat & ~units.alive[MARINE_SLOTS:].any()
+        wave = ~defeat & ~units.alive[:first].any()
         return lazy_where(wave, self.wave_reset, state, state)
 
 
