@@ -70,9 +70,10 @@ class Simulator:
       score_multiplier: multiplies every reward.
       discount: the discount of MID steps (and of truncated LAST steps).
       allow_cheating_layers: fill the minimap `unit_type` layer.
-      use_slot_sizes: on maps with `slot_sizes` (the economy and wave maps), run the game loops
-        and render the observation on the leading unit slots in use (the default);
-        False runs them on every slot, with the same results, slower (for checks).
+      use_slot_sizes: on maps with `slot_sizes` (the economy and wave maps), run the game
+        loops and render the observation on the leading unit slots in use (the
+        default); False runs them on every slot, with the same results, slower (for
+        checks).
     """
 
     map_name: str = "MoveToBeacon"
