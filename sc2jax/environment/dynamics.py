@@ -177,7 +177,8 @@ def game_loop(units: Units, key, playable, bursts: bool = False, workers: bool =
               combat: bool = True, colliders: int | None = None,
               field_slots: int | None = None,
               team_split: int | None = None,
-              jitter_slots: int | None = None) -> tuple[Units, LoopEvents]:
+              jitter_slots: int | None = None,
+              sized: bool = False) -> tuple[Units, LoopEvents]:
     """Advances all units by one game loop.
 
     Args:
@@ -199,6 +200,9 @@ def game_loop(units: Units, key, playable, bursts: bool = False, workers: bool =
       jitter_slots: (static) None, or the map's slot count where `units` are its leading
         slots (`Simulator`'s views): the weapon jitter is drawn for that many slots and
         cut, so that a slot's draw does not depend on how many slots run.
+      sized: (static) whether the map runs on several slot counts (`MiniGame.slot_sizes`):
+        the collision distances are then computed as XLA computes them alike for every
+        count (`_resolve_collisions`).
 
     Returns:
       The new units and the loop's events.
@@ -264,7 +268,7 @@ def game_loop(units: Units, key, playable, bursts: bool = False, workers: bool =
     # (without path finding, a worker would stick behind structures on its way).
     passes = gathering | (order == Order.BUILD)
     first = lambda tree: leading_slots(tree, colliders)  # noqa: E731
-    pushed = _resolve_collisions(first(new_pos), first(alive & ~passes), first(data))
+    pushed = _resolve_collisions(first(new_pos), first(alive & ~passes), first(data), sized)
     new_pos = new_pos.at[:len(pushed)].set(pushed)
     x0, y0, x1, y1 = playable
     new_pos = jnp.clip(new_pos, jnp.array([x0, y0]), jnp.array([x1, y1]))
@@ -436,13 +440,18 @@ def colliding(data):
 PUSH_BITS = 20
 
 
-def _resolve_collisions(pos, alive, data):
+def _resolve_collisions(pos, alive, data, sized: bool = False):
     """Pushes overlapping ground units apart; immobile ones (structures, resources) don't
     move. Items that do not collide (`colliding`) are ignored.
 
     The x and y components are separate [N, N] arrays: a reduction over an [N, N, 2]
     array is several times slower on XLA's CPU backend. Each push is at most both radii,
     so N of them sum within int32 for every map (checked).
+
+    `sized` (static): the distances as `hypot`. XLA compiles `sqrt(dx * dx + dy * dy)`
+    differently for N <= 32 (one loop fusion) than above, and its last bit can differ;
+    `hypot`'s does not, but costs a quarter of FindAndDefeatZerglings' step, so only
+    the maps run on several slot counts use it (docs/benchmarks.md).
     """
     n = len(pos)
     most = n * 2 * float(UNIT_DATA.radius.max()) * 2 ** PUSH_BITS
@@ -452,9 +461,7 @@ def _resolve_collisions(pos, alive, data):
     mobile = data.speed > 0
     dx = pos[:, None, 0] - pos[None, :, 0]
     dy = pos[:, None, 1] - pos[None, :, 1]
-    # Not sqrt(dx * dx + dy * dy): XLA may fuse either product into the sum, and its
-    # choice depends on the fusion, so on N.
-    dist = jnp.hypot(dx, dy)
+    dist = jnp.hypot(dx, dy) if sized else jnp.sqrt(dx * dx + dy * dy + 1e-12)
     overlap = data.radius[:, None] + data.radius[None, :] - dist
     pair = collides[:, None] & collides[None, :] & (overlap > 0) & ~jnp.eye(n, dtype=bool)
     # Share of the overlap i gives way: half between two mobile units, all against a wall.
@@ -466,7 +473,7 @@ def _resolve_collisions(pos, alive, data):
     along = lambda d, tie: jnp.where(apart, d / dist, tie[:, None] - tie[None, :])  # noqa: E731
 
     def total(d, tie):  # float32[N]: the pushes along one axis, summed in fixed point.
-        fixed = jnp.round(along(d, tie) * push * 2 ** PUSH_BITS).astype(jnp.int32)
+        fixed = (along(d, tie) * push * 2 ** PUSH_BITS).astype(jnp.int32)  # Truncated.
         return jnp.sum(fixed, axis=1).astype(jnp.float32) * 2 ** -PUSH_BITS
 
     return pos + jnp.stack([total(dx, jnp.cos(angle)), total(dy, jnp.sin(angle))], axis=-1)

@@ -236,7 +236,8 @@ class Simulator:
                                       colliders=game.collider_slots,
                                       field_slots=game.field_slots,
                                       team_split=game.team_split,
-                                      jitter_slots=game.num_slots)
+                                      jitter_slots=game.num_slots,
+                                      sized=game.slot_sizes is not None)
             minerals = state.minerals + events.minerals.astype(jnp.int32)
             next_tag, spent = state.next_tag, jnp.int32(0)
             if game.has_production:
