@@ -201,8 +201,8 @@ def game_loop(units: Units, key, playable, bursts: bool = False, workers: bool =
         slots (`Simulator`'s views): the weapon jitter is drawn for that many slots and
         cut, so that a slot's draw does not depend on how many slots run.
       sized: (static) whether the map runs on several slot counts (`MiniGame.slot_sizes`):
-        the collision distances are then computed as XLA computes them alike for every
-        count (`_resolve_collisions`).
+        the collision distances then use `hypot`, whose last bit XLA computes alike for
+        every count (`_resolve_collisions`).
 
     Returns:
       The new units and the loop's events.
@@ -450,8 +450,8 @@ def _resolve_collisions(pos, alive, data, sized: bool = False):
 
     `sized` (static): the distances as `hypot`. XLA compiles `sqrt(dx * dx + dy * dy)`
     differently for N <= 32 (one loop fusion) than above, and its last bit can differ;
-    `hypot`'s does not, but costs a quarter of FindAndDefeatZerglings' step, so only
-    the maps run on several slot counts use it (docs/benchmarks.md).
+    `hypot`'s does not, but it cuts FindAndDefeatZerglings' agent steps/s by a quarter,
+    so only the maps run on several slot counts use it (docs/benchmarks.md).
     """
     n = len(pos)
     most = n * 2 * float(UNIT_DATA.radius.max()) * 2 ** PUSH_BITS
