@@ -32,6 +32,13 @@ def compiled(sim: Simulator, batched: bool = False):
     return environments.compiled(sim, batched)
 
 
+def assert_trees_equal(a, b):
+    """Asserts two pytrees of arrays have the same structure and equal leaves, bit for bit."""
+    assert jax.tree_util.tree_structure(a) == jax.tree_util.tree_structure(b)
+    for x, y in zip(jax.tree_util.tree_leaves(a), jax.tree_util.tree_leaves(b)):
+        np.testing.assert_array_equal(np.asarray(x), np.asarray(y))
+
+
 @functools.cache
 def random_actor(types):
     """A jitted random policy for one resolution: (key, available_actions) -> action."""

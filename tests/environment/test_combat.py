@@ -22,7 +22,7 @@ from sc2jax.environment.minigames import get_map
 from sc2jax.environment.minigames.wave_combat import LEFT, MARINE_SLOTS, RIGHT, lineup_offset
 from sc2jax.environment.state import Order, Outcome, Owner, place
 
-from .conftest import PARAMS, compiled, random_actor, small_sim
+from .conftest import PARAMS, assert_trees_equal, compiled, random_actor, small_sim
 from .test_mechanics import make_units, with_orders
 
 SLOTS = 8
@@ -304,11 +304,6 @@ def _every_slot_step():
     return jax.jit(dataclasses.replace(small_sim("DefeatRoaches"), use_slot_sizes=False).step)
 
 
-def _assert_same(a, b):
-    for x, y in zip(jax.tree_util.tree_leaves(a), jax.tree_util.tree_leaves(b)):
-        np.testing.assert_array_equal(np.asarray(x), np.asarray(y))
-
-
 def test_wave_maps_play_on_their_leading_slots_as_on_all_slots():
     """DefeatRoaches runs its game loops and observation on the roaches and the leading
     marine slots in use (`slot_sizes` 4 + (16, 64)), with room for a wave's 5
@@ -327,7 +322,7 @@ def test_wave_maps_play_on_their_leading_slots_as_on_all_slots():
         action = act(jax.random.PRNGKey(i), ts.observation["available_actions"]) if ts else (
             to_dense(FUNCTIONS.no_op(), sim.fmt.types))
         (a, ts), (b, ts_b) = leading(a, action, PARAMS), _every_slot_step()(b, action, PARAMS)
-        _assert_same((a, ts), (b, ts_b))
+        assert_trees_equal((a, ts), (b, ts_b))
         if i == 0:
             assert int(a.units.alive[4:].sum()) == 14 and bool(a.units.alive[:4].all())
 
@@ -343,5 +338,5 @@ def test_a_run_whose_last_slot_fills_runs_again_on_more_slots():
     assert int(jax.jit(sim.slots_needed)(state.units)) == 18
     action = to_dense(FUNCTIONS.no_op(), sim.fmt.types)
     leading = jax.jit(sim.advance)(state, action)
-    _assert_same(leading, _every_slot_step()(state, action, PARAMS)[0])
+    assert_trees_equal(leading, _every_slot_step()(state, action, PARAMS)[0])
     assert int(leading.units.alive[4:].sum()) == 19

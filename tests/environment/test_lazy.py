@@ -8,6 +8,8 @@ import pytest
 
 from sc2jax.environment.lazy import FEW_LANES_DIVISOR, lazy_where, smallest_fit
 
+from .conftest import assert_trees_equal
+
 
 def _compute(operand):
     key, scale = operand
@@ -23,11 +25,6 @@ def _otherwise(batch=()):
     return {"x": jnp.full(batch + (3,), -1.0), "n": jnp.full(batch, 2, jnp.int32)}
 
 
-def _assert_same(a, b):
-    for x, y in zip(jax.tree_util.tree_leaves(a), jax.tree_util.tree_leaves(b)):
-        np.testing.assert_array_equal(np.asarray(x), np.asarray(y))
-
-
 def _assert_vmapped_same(preds, key):
     """Checks a vmapped, jitted `lazy_where` against `where` for a batch of predicates
     bool[B] (operands: B keys split from `key`, scales 0..B-1); returns its jaxpr."""
@@ -36,7 +33,7 @@ def _assert_vmapped_same(preds, key):
             _otherwise((batch,)))
     lazy = jax.jit(jax.vmap(lambda p, k, s, o: lazy_where(p, _compute, (k, s), o)))
     eager = jax.vmap(lambda p, k, s, o: _eager(p, (k, s), o))
-    _assert_same(lazy(*args), eager(*args))
+    assert_trees_equal(lazy(*args), eager(*args))
     return jax.make_jaxpr(lazy)(*args)
 
 
@@ -44,7 +41,7 @@ def _assert_vmapped_same(preds, key):
 def test_unbatched_equals_where(pred):
     operand = (jax.random.PRNGKey(0), jnp.float32(2.0))
     pred = jnp.asarray(pred)
-    _assert_same(jax.jit(lazy_where, static_argnums=1)(pred, _compute, operand, _otherwise()),
+    assert_trees_equal(jax.jit(lazy_where, static_argnums=1)(pred, _compute, operand, _otherwise()),
                  _eager(pred, operand, _otherwise()))
 
 
@@ -59,7 +56,7 @@ def test_unbatched_operand_and_otherwise_under_vmap():
     operand = (jax.random.PRNGKey(2), jnp.float32(3.0))
     lazy = jax.vmap(lambda p: lazy_where(p, _compute, operand, _otherwise()))(preds)
     eager = jax.vmap(lambda p: _eager(p, operand, _otherwise()))(preds)
-    _assert_same(lazy, eager)
+    assert_trees_equal(lazy, eager)
 
 
 def test_nested_vmap_equals_where():
@@ -69,7 +66,7 @@ def test_nested_vmap_equals_where():
     inner = lambda f: jax.vmap(jax.vmap(f))  # noqa: E731
     lazy = inner(lambda p, k, s, o: lazy_where(p, _compute, (k, s), o))
     eager = inner(lambda p, k, s, o: _eager(p, (k, s), o))
-    _assert_same(lazy(preds, keys, scales, _otherwise((3, 2))),
+    assert_trees_equal(lazy(preds, keys, scales, _otherwise((3, 2))),
                  eager(preds, keys, scales, _otherwise((3, 2))))
 
 

@@ -21,7 +21,7 @@ from sc2jax.environment.protocol_enums import ActionResult
 from sc2jax.environment.state import Order, Owner, place
 from sc2jax.environment.units import UnitType
 
-from .conftest import PARAMS, SMALL, compiled, small_sim
+from .conftest import PARAMS, SMALL, assert_trees_equal, compiled, small_sim
 
 CMAG, BM = "CollectMineralsAndGas", "BuildMarines"
 F = FUNCTIONS
@@ -349,9 +349,7 @@ def test_leading_slots_play_the_same_game_as_all_slots(marines, needs):
     for _ in range(3):
         seen.append(int(need(a.units)))
         (a, ts_a), (b, ts_b) = act(step, a, F.no_op(), BM), act(step_every, b, F.no_op(), BM)
-        for x, y in zip(jax.tree_util.tree_leaves((a, ts_a)),
-                        jax.tree_util.tree_leaves((b, ts_b))):
-            np.testing.assert_array_equal(np.asarray(x), np.asarray(y))
+        assert_trees_equal((a, ts_a), (b, ts_b))
     assert seen == needs
     assert int(a.units.alive.sum()) == 22 + marines  # The new SCV.
 
