@@ -64,9 +64,23 @@ def _check_step(step: Any) -> int:
     return step
 
 
+def _default_device() -> jax.sharding.Sharding:
+    return jax.sharding.SingleDeviceSharding(jax.devices()[0])
+
+
+def placed_as_restored(tree: Any) -> Any:
+    """`tree` committed to the default device, as `Checkpointer.restore` places a state.
+
+    A fresh state is uncommitted, and jit compiles a function again for arguments placed
+    differently: a run that places its fresh state with this compiles the same program
+    when it starts as when it resumes (once per process, and one persistent-cache entry).
+    """
+    return jax.device_put(tree, _default_device())
+
+
 def _abstract(target: Any) -> Any:
     """The shape and dtype of every leaf of `target`, placed on the default device."""
-    sharding = jax.sharding.SingleDeviceSharding(jax.devices()[0])
+    sharding = _default_device()
 
     def leaf(path, x):
         if not (hasattr(x, "shape") and hasattr(x, "dtype")):

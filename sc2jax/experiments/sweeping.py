@@ -32,7 +32,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from sc2jax.experiments.checkpoints import Checkpointer, write_json_atomic
+from sc2jax.experiments.checkpoints import Checkpointer, placed_as_restored, write_json_atomic
 from sc2jax.experiments.checks import check_positive_int
 from sc2jax.experiments.config import TrainConfig
 from sc2jax.experiments.metrics_log import CsvLog, read_csv
@@ -99,7 +99,7 @@ def run_sweep(config: TrainConfig, learning_rates, sweep_dir: str, *,
     write_json_atomic(os.path.join(sweep_dir, "config.json"), config.to_json())
     agent = build(config)
     keys = jax.vmap(jax.random.PRNGKey)(config.seed + jnp.arange(num_runs))
-    state = jax.vmap(agent.initial_state)(keys, jnp.asarray(rates))
+    state = placed_as_restored(jax.vmap(agent.initial_state)(keys, jnp.asarray(rates)))
     update, env_steps = 0, 0
     checkpointer = Checkpointer(os.path.join(sweep_dir, "checkpoints"))
     if checkpointer.latest_step() is not None:

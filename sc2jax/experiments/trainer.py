@@ -48,7 +48,7 @@ from sc2jax.environment.game_env import GameEnvBatch
 from sc2jax.environment.simulator import Simulator
 from sc2jax.experiments import evaluation
 from sc2jax.experiments.actor import ActorCore, actor_core, make_unroll
-from sc2jax.experiments.checkpoints import Checkpointer, write_json_atomic
+from sc2jax.experiments.checkpoints import Checkpointer, placed_as_restored, write_json_atomic
 from sc2jax.experiments.compiled_loop import TrainState, make_train_chunk
 from sc2jax.experiments.config import TrainConfig
 from sc2jax.experiments.host_actor import HostActor, SplitLoop
@@ -264,7 +264,7 @@ def train(config: TrainConfig, run_dir: str, *, log: Callable[[str], None] = pri
     check_run_dir(run_dir, config)
     write_json_atomic(os.path.join(run_dir, "config.json"), config.to_json())
     agent = build(config)
-    state = agent.initial(jax.random.PRNGKey(config.seed))
+    state = placed_as_restored(agent.initial(jax.random.PRNGKey(config.seed)))
     checkpointer = Checkpointer(os.path.join(run_dir, "checkpoints"))
     update, env_steps = 0, 0
     if checkpointer.latest_step() is not None:
