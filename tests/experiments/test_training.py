@@ -26,6 +26,14 @@ TINY = TrainConfig(map_name="MoveToBeacon", agent="atari", screen_size=16, minim
                    minimap_features=("player_relative",), num_envs=2, unroll_length=4,
                    total_steps=32, updates_per_chunk=2, eval_episodes=0,
                    checkpoint_interval_s=1e9)
+# 32 updates of 30-step episodes on CollectMineralShards, its best parameters chosen by
+# an evaluation every 8 updates. Tests of single runs derive their configs from it
+# where they can, and sweep tests from SWEEP, so that they share compiled programs.
+PERIODIC = TrainConfig(**{**TINY.to_json(), "map_name": "CollectMineralShards",
+                          "step_mul": 64, "total_steps": 256, "best_eval_interval": 8,
+                          "best_eval_episodes": 2})
+SWEEP = TrainConfig(**{**PERIODIC.to_json(), "total_steps": 128, "eval_episodes": 2,
+                       "best_eval_interval": 4})
 
 
 @pytest.mark.parametrize("change, message", [
@@ -120,10 +128,11 @@ def test_trained_run_can_be_evaluated(tmp_path):
 
 def test_training_keeps_and_evaluates_its_best_parameters(tmp_path, monkeypatch):
     # Short episodes (30 agent steps at step_mul 64) and a window of one episode, so the
-    # best recent score changes within a tiny run. It is interrupted after its best
-    # (update 24 of 32), which must survive the restart.
+    # best recent score changes within a tiny run. It is interrupted after update 26 of
+    # 32, and its best must survive the restart. (The run's programs are those of
+    # PERIODIC's: the best-parameter settings change no compiled function.)
     monkeypatch.setattr(trainer, "SCORE_WINDOW", 1)
-    config = TrainConfig(**{**TINY.to_json(), "step_mul": 64, "total_steps": 256,
+    config = TrainConfig(**{**PERIODIC.to_json(), "best_eval_interval": 0,
                             "eval_episodes": 2})
     run = str(tmp_path / "run")
     trainer.train(config, run, log=lambda _: None, progress=False, stop_after_updates=26)
@@ -159,9 +168,7 @@ def test_best_parameters_chosen_by_periodic_evaluation(tmp_path):
     # Every 8 updates (chunks of 2) the current parameters play 2 evaluation episodes,
     # always with the same seed; the best of those are kept, across an interruption.
     # (On this map and seed the evaluations differ, and the best is before update 18.)
-    config = TrainConfig(**{**TINY.to_json(), "map_name": "CollectMineralShards",
-                            "step_mul": 64, "total_steps": 256, "best_eval_interval": 8,
-                            "best_eval_episodes": 2})
+    config = PERIODIC
     run = str(tmp_path / "run")
     trainer.train(config, run, log=lambda _: None, progress=False, stop_after_updates=18)
     trainer.train(config, run, log=lambda _: None, progress=False)
@@ -188,7 +195,7 @@ def test_sampled_learning_rates_are_log_uniform_in_range():
 
 
 def test_sweep_reports_table1_entries(tmp_path):
-    config = TrainConfig(**{**TINY.to_json(), "eval_episodes": 2})
+    config = TrainConfig(**{**SWEEP.to_json(), "best_eval_interval": 0})
     summary = sampling.run_sweep(config, [1e-4, 1e-3], str(tmp_path), log=lambda _: None)
     assert len(summary["run_scores"]) == 2 and summary["best_run"] in (0, 1)
     assert summary["best_mean"] == max(summary["run_scores"])
@@ -199,9 +206,7 @@ def test_sweep_reports_table1_entries(tmp_path):
 
 
 def test_sweep_keeps_each_runs_best_parameters_by_periodic_evaluation(tmp_path):
-    config = TrainConfig(**{**TINY.to_json(), "map_name": "CollectMineralShards",
-                            "step_mul": 64, "total_steps": 128, "eval_episodes": 2,
-                            "best_eval_interval": 4, "best_eval_episodes": 2})
+    config = SWEEP
     summary = sampling.run_sweep(config, [1e-3, 1e-2], str(tmp_path), log=lambda _: None)
     assert set(summary["best_updates"]) <= {4, 8, 12, 16}
     assert sampling.run_score_rule(config) == ("the mean of 2 fresh evaluation episodes of "
