@@ -14,6 +14,11 @@
   slower, which costs the few long-running tests less than it saves.
 - Two host devices on the CPU, so that the tests of `sc2jax.environment.devices` can split
   environments over them; every other program runs on the first, as with one.
+- The longest files first: xdist hands out whole files (`--dist loadfile`), by default
+  those with the most tests first, so test_learning (one test, about 90 s) ran last
+  while the other worker idled (548 s of wall time for about 460 s of work on each).
+  With `--no-loadscope-reorder` (pyproject.toml) they go in collection order, which
+  `pytest_collection_modifyitems` below sets.
 """
 
 import os
@@ -47,3 +52,16 @@ def pytest_configure(config):
 def pytest_unconfigure(config):
     if getattr(config, "_sc2jax_cache_owner", False):
         shutil.rmtree(os.environ.pop(_ENV), ignore_errors=True)
+
+
+# Files that each take a worker a minute or more, longest first (measured on 2 cores).
+_LONGEST_FIRST = ("test_learning.py", "test_training.py", "test_actor_learner.py",
+                  "test_contract_vmap.py", "test_contract.py")
+
+
+def pytest_collection_modifyitems(config, items):
+    def rank(item):
+        name = item.path.name
+        return _LONGEST_FIRST.index(name) if name in _LONGEST_FIRST else len(_LONGEST_FIRST)
+
+    items.sort(key=rank)  # Stable: each file's tests keep their order.
