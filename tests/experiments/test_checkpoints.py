@@ -13,7 +13,7 @@ import optax
 import pytest
 from flax import struct
 
-from sc2jax.experiments.checkpoints import Checkpointer, write_json_atomic
+from sc2jax.experiments.checkpoints import Checkpointer, placed_as_restored, write_json_atomic
 
 
 class Counters(NamedTuple):
@@ -68,6 +68,20 @@ def test_restore_into_concrete_target_and_default_metadata(tmp_path):
         restored, meta = ckpt.restore(_state(0))
     _assert_same(restored, state)
     assert meta == {}
+
+
+def test_a_placed_fresh_state_and_a_restored_one_share_a_compiled_function(tmp_path):
+    # A resumed run must not compile its training step again (placed as it started).
+    fresh = placed_as_restored(_state(0))
+    with Checkpointer(tmp_path) as checkpointer:
+        checkpointer.save(1, fresh, {})
+        restored, _ = checkpointer.restore(_state(0))
+    step = jax.jit(lambda state: jax.tree.map(lambda x: x + 1, state.params))
+    step(fresh)
+    step(restored)
+    assert step._cache_size() == 1
+    step(_state(0))  # Unplaced: compiled again, which is what placing avoids.
+    assert step._cache_size() == 2
 
 
 def test_keeps_the_latest_max_to_keep_and_restores_older_steps(tmp_path):
