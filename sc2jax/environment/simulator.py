@@ -23,7 +23,7 @@ from flax import struct
 from sc2jax.environment import production, score, specs
 from sc2jax.environment.actions import apply_action
 from sc2jax.environment.availability import CARD_TABLE
-from sc2jax.environment.dense import DenseAction
+from sc2jax.environment.dense import DenseAction, check_dense_action
 from sc2jax.environment.dynamics import game_loop
 from sc2jax.environment.lazy import lazy_where, smallest_fit
 from sc2jax.environment.minigames import get_map
@@ -155,7 +155,17 @@ class Simulator:
                                    discount.astype(jnp.float32))
 
     def act(self, state: EnvState, action: DenseAction) -> EnvState:
-        """Applies an action without advancing the game (the SC2 API's `RequestAction`)."""
+        """Applies an action without advancing the game (the SC2 API's `RequestAction`).
+
+        Raises:
+          ValueError: (while tracing, before any compilation) if `action` is not an
+            unbatched `DenseAction` of integer arrays (vmap `step` for a batch).
+        """
+        try:
+            check_dense_action(action, ())
+        except ValueError as error:
+            raise ValueError(f"{error}: Simulator.step and act take one environment's "
+                             "action (jax.vmap them for a batch)") from None
         return apply_action(state, action, self.renderer, self.card_table,
                             economy=self.game.has_production)
 

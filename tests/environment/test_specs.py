@@ -1,9 +1,18 @@
 """Tests for the observation and action specs."""
 
+import jax
 import numpy as np
 import pytest
 
-from sc2jax.environment import ObservationFormat, action_spec, make, observation_spec
+from sc2jax.environment import (
+    FUNCTIONS,
+    ObservationFormat,
+    Simulator,
+    action_spec,
+    make,
+    observation_spec,
+    to_dense,
+)
 from sc2jax.environment.minigames import get_map
 
 
@@ -80,3 +89,16 @@ def test_unknown_map_lists_the_maps(name):
         get_map(name)
     with pytest.raises(ValueError, match=allowed):
         make(name)
+
+
+def test_the_functional_step_checks_its_action_while_tracing():
+    sim = Simulator("MoveToBeacon")
+    state, _ = jax.eval_shape(sim.reset, jax.random.PRNGKey(0))  # Traced: no compile.
+    one = to_dense([FUNCTIONS.no_op()])
+    jax.eval_shape(sim.step, state, jax.tree_util.tree_map(lambda x: x[0], one))
+    with pytest.raises(ValueError, match=r"action.function has shape \(2,\); expected "
+                                         r"\(\): .*jax.vmap them for a batch"):
+        jax.eval_shape(sim.step, state, to_dense([FUNCTIONS.no_op()] * 2))
+    floats = jax.tree_util.tree_map(lambda x: x[0].astype(np.float32), one)
+    with pytest.raises(ValueError, match="action.function has dtype float32"):
+        jax.eval_shape(sim.act, state, floats)
