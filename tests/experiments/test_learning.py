@@ -14,8 +14,6 @@ breaks.
 
 from __future__ import annotations
 
-import functools
-
 import jax
 import jax.numpy as jnp
 import numpy as np
@@ -32,25 +30,24 @@ CONFIG = TrainConfig(map_name="MoveToBeacon", agent="fullyconv", screen_size=16,
                      minimap_size=16, screen_features=("player_relative", "selected"),
                      minimap_features=("player_relative",),
                      functions=("no_op", "select_army", "Move_screen"), num_envs=16,
-                     unroll_length=8, learning_rate=7e-4, total_steps=160 * 128)
+                     unroll_length=8, learning_rate=4e-3, total_steps=70 * 128)
 MOVE = FUNCTIONS.Move_screen.id
-# The hit rate, in windows of 20 updates (this test's run, 2026-11-26): 0.05 to 0.07 up
-# to update 60, 0.14 at 80, 0.51 at 100, 0.88 at 120, 0.95 over updates 141-160.
-# The suite compiles at XLA's optimisation level 0 (tests/conftest.py); this test runs
-# its three programs 160 times, so they are compiled at the default level (3), which
-# is faster on a 2-core machine (at 240 updates: about 115 s against 200 s).
-OPTIMISED = {"xla_backend_optimization_level": 3}
+# The hit rate, in windows of 10 updates (this test's run, 2026-11-27): 0.054, 0.048,
+# 0.191, 0.568, 0.907, 0.952, 0.991; past 0.5 from about update 35, so about 25 updates
+# of margin. (At the paper's 7e-4 it took 100 updates to pass 0.5 and the test 160: 161 s
+# of a 2-core suite against about 65 s now. At 2e-3: 0.47 over updates 41-50.) The
+# programs compile at the suite's optimisation level 0 (tests/conftest.py): at 70
+# updates level 3's faster steps (0.33 s against 0.5) do not pay for its compile.
 
 
 def test_fullyconv_learns_to_click_the_beacon():
     agent = trainer.build(CONFIG)
     state = agent.initial_state(jax.random.PRNGKey(0))
-    unroll = jax.jit(make_unroll(agent.sim, agent.core, CONFIG.unroll_length).unroll,
-                     compiler_options=OPTIMISED)
-    update = jax.jit(agent.learner.update, compiler_options=OPTIMISED)
+    unroll = jax.jit(make_unroll(agent.sim, agent.core, CONFIG.unroll_length).unroll)
+    update = jax.jit(agent.learner.update)
     t, width = CONFIG.unroll_length, CONFIG.screen_size
 
-    @functools.partial(jax.jit, compiler_options=OPTIMISED)
+    @jax.jit
     def relabel(params, trajectory, key):
         obs = jax.tree.map(lambda x: x[:t], trajectory.observation)
         can_move = obs["available_actions"][..., MOVE]
