@@ -5,32 +5,34 @@ import jax
 import numpy as np
 import pytest
 
-from sc2jax.environment import DenseAction, make
+from sc2jax.environment import DenseAction, environments, make
 from sc2jax.environment.agents import random_action
 from sc2jax.environment.devices import device_sets, over_devices
-from tests.environment.conftest import SMALL_MAKE, small_sim
+from tests.environment.conftest import PARAMS, SMALL_MAKE, small_sim
 
 NUM_ENVS = 4
 
 
-def _play(fn, steps: int = 3):
-    """Random play of `fn` (batched (states, actions) -> (states, timesteps)) from NUM_ENVS
-    distinct resets; returns the last (states, timesteps)."""
+def _play(devices, steps: int = 3):
+    """Random play of NUM_ENVS environments from distinct resets, split over `devices`
+    (the batched wrapper's programs, `environments.compiled`, so the two tests of the
+    split share their compilation); returns the last (states, timesteps)."""
     sim = small_sim("MoveToBeacon")
-    state, ts = jax.jit(jax.vmap(sim.reset))(jax.random.split(jax.random.PRNGKey(3), NUM_ENVS))
+    reset, step = environments.compiled(sim, True, tuple(devices))
+    state, ts = reset(jax.random.split(jax.random.PRNGKey(3), NUM_ENVS), PARAMS)
     act = jax.jit(jax.vmap(random_action, in_axes=(0, 0, None)), static_argnums=2)
-    step = jax.jit(fn(jax.vmap(sim.step)))
     for i in range(steps):
         keys = jax.random.split(jax.random.PRNGKey(i), NUM_ENVS)
-        state, ts = step(state, act(keys, ts.observation["available_actions"], sim.fmt.types))
+        action = act(keys, ts.observation["available_actions"], sim.fmt.types)
+        state, ts = step(state, action, PARAMS)
     return state, ts
 
 
 def test_two_devices_step_each_environment_as_one_device_does():
     devices = jax.devices()
     assert len(devices) >= 2, "tests/conftest.py gives the CPU two host devices"
-    one = jax.device_get(_play(lambda f: over_devices(f, devices[:1])))
-    two = _play(lambda f: over_devices(f, devices[:2]))
+    one = jax.device_get(_play(devices[:1]))
+    two = _play(devices[:2])
     # The results stay split: each device holds its half of the environments.
     placed = two[0].units.pos.sharding
     assert placed.device_set == set(devices[:2])
