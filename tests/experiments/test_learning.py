@@ -34,7 +34,7 @@ CONFIG = TrainConfig(map_name="MoveToBeacon", agent="fullyconv", screen_size=16,
 MOVE = FUNCTIONS.Move_screen.id
 # The hit rate, in windows of 10 updates (this test's run, 2026-11-27): 0.053, 0.044,
 # 0.097, 0.501, 0.922, 0.963, 0.992; past 0.5 from about update 40, so about 25 updates
-# of margin. (At the paper's 7e-4 and 16 environments it took 100 updates to pass 0.5
+# of margin. (At 7e-4 and with 16 environments it took 100 updates to pass 0.5
 # and the test 160: 162 s of a 2-core suite, against 39 s run alone now.) The programs
 # compile at the suite's optimisation level 0 (tests/conftest.py): at 70 updates level
 # 3's faster steps do not pay for its compile.
