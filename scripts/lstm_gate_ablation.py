@@ -17,8 +17,7 @@ from absl import app, flags
 
 from sc2jax.experiments import train
 from sc2jax.networks import fully_conv, fully_conv_lstm
-from sc2jax.networks.heads import ConvPointHeads, ScalarArgumentHeads
-from sc2jax.networks.outputs import ArgumentLogits, NetworkOutput
+from sc2jax.networks.outputs import NetworkOutput
 
 _BLOCK = flags.DEFINE_enum("block", None, ["value", "policy"],
                            "the loss term whose gradient does not reach the ConvLSTM")
@@ -26,24 +25,17 @@ _BLOCK = flags.DEFINE_enum("block", None, ["value", "policy"],
 
 class BlockedHeads(fully_conv.FullyConvHeads):
     """`FullyConvHeads` with the gradient of the value or of the policy outputs stopped at
-    `state`; the same parameters and outputs."""
+    `state`: the real heads, run twice in this module's own scope (the same parameters and
+    outputs), once on `state` and once on a copy that passes no gradient."""
 
-    @nn.compact
+    def setup(self):
+        self.heads = fully_conv.FullyConvHeads(self.spec, self.hidden)
+        nn.share_scope(self, self.heads)
+
     def __call__(self, state: jax.Array) -> NetworkOutput:
-        stopped = jax.lax.stop_gradient(state)
-        value_in, policy_in = (stopped, state) if _BLOCK.value == "value" else (state, stopped)
-        fc = nn.Dense(self.hidden, name="fc")
-
-        def hidden(x):
-            return nn.relu(fc(x.reshape(x.shape[0], -1)))
-
-        h_value, h_policy = hidden(value_in), hidden(policy_in)
-        args = {**ScalarArgumentHeads(self.spec, name="scalar_heads")(h_policy),
-                **ConvPointHeads(self.spec, name="point_heads")(policy_in)}
-        return NetworkOutput(
-            value=nn.Dense(1, name="value")(h_value)[:, 0],
-            function_logits=nn.Dense(self.spec.num_functions, name="function")(h_policy),
-            argument_logits=ArgumentLogits(*(args[i] for i in range(len(args)))))
+        through, stopped = self.heads(state), self.heads(jax.lax.stop_gradient(state))
+        value, policy = (stopped, through) if _BLOCK.value == "value" else (through, stopped)
+        return policy._replace(value=value.value)
 
 
 def main(argv):
