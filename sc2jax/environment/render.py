@@ -393,8 +393,15 @@ class Renderer:
         if not order:
             return jnp.zeros((len(names), h, w), jnp.int32)
         column = lambda v: np.asarray(v, np.int32)[:, None, None]  # noqa: E731
-        stacked = materialize(jnp.stack([planes[p].astype(jnp.int32) for p in order]))
-        layers = jnp.right_shift(stacked[np.asarray(source)], column(shift)) & column(mask)
+        # Each plane is written once, and each layer picks its plane by a `where` chain:
+        # a gather from the planes stacked on a layer axis makes XLA write the stack
+        # and the layers with that axis first, and copy both to the batch-major layout.
+        stacked = [materialize(planes[p].astype(jnp.int32)) for p in order]
+        source = np.asarray(source)
+        chosen = stacked[0][None]
+        for k in range(1, len(order)):
+            chosen = jnp.where(column(source == k), stacked[k][None], chosen)
+        layers = jnp.right_shift(chosen, column(shift)) & column(mask)
         if any(m != 1 for m in multiplier):
             layers = jnp.minimum(layers * column(multiplier), column(cap))
         return layers
