@@ -88,6 +88,47 @@ def use_cpu_cores(at_least: int = 0) -> None:
     jax.config.update("jax_num_cpu_devices", max(os.cpu_count() or 1, at_least))
 
 
+SMALL_LOOP_OPTION = "xla_cpu_small_while_loop_byte_threshold"
+SMALL_LOOP_BYTES = 1_000_000
+"""`compile_small_loops_whole`'s default: the game loops of up to about 16 environments
+fit under it (a MoveToBeacon loop at 64 environments does not)."""
+
+
+def compile_small_loops_whole(max_bytes: int = SMALL_LOOP_BYTES) -> None:
+    """Lets XLA's CPU backend compile a while loop that touches at most `max_bytes` into
+    one kernel (its `xla_cpu_small_while_loop_byte_threshold`, 1 KB by default).
+
+    By default each operation of a loop's body is a kernel of its own, dispatched one
+    after another: an agent step's game loops at one environment are about 1,600 of
+    them. A loop whose body XLA can compile whole (no scatter, sort or custom call;
+    MoveToBeacon's and CollectMineralShards' game loops) runs as one kernel instead.
+    The results are the same. It changes the whole process's CPU compilation, so it is
+    the caller's choice (`python -m sc2jax.experiments.benchmark` makes it); a value
+    already in `XLA_FLAGS` is kept.
+
+    Call it before JAX starts its backends (before any computation).
+
+    Raises:
+      RuntimeError: JAX's backends have already started.
+      ValueError: max_bytes is not a positive int.
+    """
+    if isinstance(max_bytes, bool) or not isinstance(max_bytes, int) or max_bytes < 1:
+        raise ValueError(f"max_bytes must be a positive int, got {max_bytes!r}")
+    from jax._src import xla_bridge  # JAX has no public check; XLA reads the flags once.
+    if xla_bridge.backends_are_initialized():
+        raise RuntimeError("compile_small_loops_whole must be called before JAX starts its "
+                           "backends (before any computation): XLA reads XLA_FLAGS once")
+    flags = os.environ.get("XLA_FLAGS", "")
+    if SMALL_LOOP_OPTION in flags:
+        return
+    option, extra = f"{SMALL_LOOP_OPTION}={max_bytes}", "--xla_backend_extra_options="
+    if extra in flags:  # One comma-separated list of backend options.
+        flags = flags.replace(extra, f"{extra}{option},", 1)
+    else:
+        flags = f"{flags} {extra}{option}".strip()
+    os.environ["XLA_FLAGS"] = flags
+
+
 def device_sets(num_envs: int, counts: Sequence[int]) -> list[list[jax.Device]]:
     """The local devices to split `num_envs` environments over, one list per device count
     in `counts` (0: every local device). A count that does not divide `num_envs` becomes

@@ -35,7 +35,13 @@ from absl import app, flags, logging
 
 from sc2jax.environment import MAPS, ObservationFormat, Simulator
 from sc2jax.environment.agents.random_agent import random_action
-from sc2jax.environment.devices import device_sets, over_devices, use_cpu_cores
+from sc2jax.environment.devices import (
+    SMALL_LOOP_BYTES,
+    compile_small_loops_whole,
+    device_sets,
+    over_devices,
+    use_cpu_cores,
+)
 from sc2jax.environment.minigames import check_map
 from sc2jax.experiments.checks import non_negative_ints, positive_ints
 from sc2jax.experiments.machine import machine
@@ -53,6 +59,9 @@ flags.DEFINE_integer("repeats", 3, "Timed calls per measurement (the median is r
 flags.DEFINE_list("devices", ["1", "0"], "Device counts to split the environments over, each "
                   "timed (0: every local device; on a CPU, one host device per core). An "
                   "environment count that a device count does not divide runs on one device.")
+flags.DEFINE_integer("small_loop_bytes", SMALL_LOOP_BYTES, "On a CPU, while loops that touch "
+                     "at most this many bytes are compiled whole "
+                     "(`devices.compile_small_loops_whole`); 0 keeps XLA's default.")
 flags.DEFINE_bool("smax", True, "Also measure JaxMARL's SMAX 3m (skipped if not installed).")
 flags.DEFINE_string("output", None, "Markdown file to write the results section into.")
 
@@ -263,7 +272,11 @@ def main(argv: Sequence[str]) -> None:
         raise ValueError(f"--repeats must be >= 1 and --steps >= 0, got {FLAGS.repeats} "
                          f"and {FLAGS.steps}")
     device_counts = non_negative_ints("devices", FLAGS.devices)
+    if FLAGS.small_loop_bytes < 0:
+        raise ValueError(f"--small_loop_bytes must be >= 0, got {FLAGS.small_loop_bytes}")
     use_cpu_cores(max(device_counts))  # Before `machine()` starts the backend.
+    if FLAGS.small_loop_bytes:
+        compile_small_loops_whole(FLAGS.small_loop_bytes)
     fmt = ObservationFormat(screen_size=FLAGS.screen_size, minimap_size=FLAGS.minimap_size)
     before = machine()
     logging.info("Machine: %s", before)
@@ -300,7 +313,7 @@ def main(argv: Sequence[str]) -> None:
             ("devices", ",".join(FLAGS.devices)),
             ("screen_size", FLAGS.screen_size), ("minimap_size", FLAGS.minimap_size),
             ("step_mul", FLAGS.step_mul), ("steps", FLAGS.steps), ("repeats", FLAGS.repeats),
-            ("smax", FLAGS.smax)))
+            ("small_loop_bytes", FLAGS.small_loop_bytes), ("smax", FLAGS.smax)))
     section = markdown(results, smax, command, before, machine(), note)
     print(section)
     if FLAGS.output:

@@ -1,13 +1,17 @@
 """`over_devices`, and the batched dm_env wrapper over it: environments split over the two
 host devices that tests/conftest.py makes."""
 
+import os
+import subprocess
+import sys
+
 import jax
 import numpy as np
 import pytest
 
 from sc2jax.environment import DenseAction, environments, make
 from sc2jax.environment.agents import random_action
-from sc2jax.environment.devices import device_sets, over_devices
+from sc2jax.environment.devices import compile_small_loops_whole, device_sets, over_devices
 from tests.environment.conftest import PARAMS, SMALL_MAKE, small_sim
 
 NUM_ENVS = 4
@@ -113,3 +117,34 @@ def test_batched_wrapper_refuses_bad_device_counts_before_compiling():
         make("MoveToBeacon", num_envs=3, num_devices=0, **SMALL_MAKE)
     with pytest.raises(ValueError, match="num_devices=2 splits a batch.*num_envs=None"):
         make("MoveToBeacon", num_devices=2, **SMALL_MAKE)
+
+
+_SMALL_LOOPS = """
+import os, jax
+from sc2jax.environment.devices import compile_small_loops_whole
+compile_small_loops_whole(4096)
+print(os.environ["XLA_FLAGS"])
+compile_small_loops_whole(8192)  # Already set: kept.
+print(os.environ["XLA_FLAGS"])
+jax.numpy.ones(2).block_until_ready()
+try:
+    compile_small_loops_whole(4096)
+except RuntimeError as e:
+    print("refused:", e)
+"""
+
+
+def test_compile_small_loops_whole_sets_the_flag_only_before_the_backends_start():
+    env = dict(os.environ, XLA_FLAGS="--xla_backend_extra_options=xla_cpu_enable_fast_min_max=true")
+    out = subprocess.run([sys.executable, "-c", _SMALL_LOOPS], env=env, capture_output=True,
+                         text=True, check=True).stdout.splitlines()
+    flags = ("--xla_backend_extra_options=xla_cpu_small_while_loop_byte_threshold=4096,"
+             "xla_cpu_enable_fast_min_max=true")
+    assert out[:2] == [flags, flags]
+    assert out[2].startswith("refused: compile_small_loops_whole must be called before")
+
+
+@pytest.mark.parametrize("bad", [0, -1, 1.5, True, "1000"])
+def test_compile_small_loops_whole_refuses_bad_sizes(bad):
+    with pytest.raises(ValueError, match="max_bytes must be a positive int"):
+        compile_small_loops_whole(bad)

@@ -70,7 +70,7 @@ class CollectMineralShards(MiniGame):
             PICKUP_DISTANCE)
         picked = shard_alive & touching
         minerals = state.minerals + MINERALS_PER_SHARD * jnp.sum(picked)
-        alive = units.alive.at[SHARDS].set(shard_alive & ~picked)
+        alive = units.alive.at[SHARDS[0]:SHARDS[-1] + 1].set(shard_alive & ~picked)
         units = units.replace(alive=alive)
         return state.replace(units=units, minerals=minerals,
                              score=minerals // MINERALS_PER_SHARD)
