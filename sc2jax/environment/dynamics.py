@@ -269,7 +269,7 @@ def game_loop(units: Units, key, playable, bursts: bool = False, workers: bool =
     passes = gathering | (order == Order.BUILD)
     first = lambda tree: leading_slots(tree, colliders)  # noqa: E731
     pushed = _resolve_collisions(first(new_pos), first(alive & ~passes), first(data), sized)
-    new_pos = new_pos.at[:len(pushed)].set(pushed)
+    new_pos = jnp.concatenate([pushed, new_pos[len(pushed):]])
     x0, y0, x1, y1 = playable
     new_pos = jnp.clip(new_pos, jnp.array([x0, y0]), jnp.array([x1, y1]))
     new_pos = jnp.where(alive[:, None], new_pos, pos)
@@ -291,7 +291,11 @@ def game_loop(units: Units, key, playable, bursts: bool = False, workers: bool =
         fires = jnp.zeros(n, bool)
     single = fires & (data.burst <= 0) if bursts else fires
     hits = jnp.where(single, _damage_per_hit(data, safe_target), 0.0)
-    damage = jnp.zeros(n, jnp.float32).at[safe_target].add(hits)
+    # Sums over the [N, N] pairs, not scatters (`fusion.set_static`); exact in any order,
+    # as damage comes in halves of hit points (at least 0.5 a hit).
+    hit_by = safe_target[None, :] == rows[:, None]  # [victim, attacker]
+    damage = (jnp.sum(jnp.where(hit_by, hits[None, :], 0.0), axis=1) if combat
+              else jnp.zeros(n, jnp.float32))
     # Volatile bursts: a unit that attacks with one dies, and one killed by this loop's
     # other damage bursts too (a single round: no map has bursting units on both sides).
     exploded = jnp.zeros(n, bool)
@@ -320,7 +324,7 @@ def game_loop(units: Units, key, playable, bursts: bool = False, workers: bool =
     # whose ally within its acquisition range was hit.
     new_target = target
     if combat:
-        attacker = jnp.full(n, -1, jnp.int32).at[safe_target].max(jnp.where(fires, rows, -1))
+        attacker = jnp.max(jnp.where(hit_by & fires[None, :], rows[None, :], -1), axis=1)
         called = _rows(blocks, lambda block: _called(units, data, block, fires, safe_target,
                                                      attacker))
         answer = jnp.where(attacker >= 0, attacker, called)
@@ -420,8 +424,9 @@ def _complete_orders(units: Units, old_pos, step, goal_dist, has_target, moving)
     walking_done = arrived & ((order == Order.MOVE) | (order == Order.ATTACK_MOVE))
     patrol_turn = arrived & (order == Order.PATROL)
     units = units.replace(
-        order_pos=units.order_pos.at[:, 0].set(
-            jnp.where(patrol_turn[:, None], units.patrol_origin, units.order_pos[:, 0])),
+        order_pos=jnp.concatenate([
+            jnp.where(patrol_turn[:, None], units.patrol_origin, units.order_pos[:, 0])[:, None],
+            units.order_pos[:, 1:]], axis=1),
         patrol_origin=jnp.where(patrol_turn[:, None], units.order_pos[:, 0],
                                 units.patrol_origin))
     return pop_order(units, walking_done)

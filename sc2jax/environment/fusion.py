@@ -24,3 +24,21 @@ def materialize(x):
     x = jnp.asarray(x)
     row = jax.lax.optimization_barrier(jnp.zeros(1, jnp.int32))
     return x.at[row].set(x[:1])
+
+
+def set_static(x, values: dict):
+    """x with x[i] = values[i] for each static index i of its first axis, written as
+    slices joined by one concatenate, not a scatter.
+
+    XLA's CPU backend compiles a while loop whose body has a scatter as a loop of
+    separate kernels (`devices.compile_small_loops_whole`); `x.at[i].set(v)` with a
+    constant i is a scatter.
+
+    Args:
+      x: an array [N, ...].
+      values: index in [0, N) -> a value of shape x.shape[1:] (cast to x's dtype).
+    """
+    x = jnp.asarray(x)
+    rows = [jnp.asarray(values[i], x.dtype)[None] if i in values else x[i:i + 1]
+            for i in range(x.shape[0])]
+    return jnp.concatenate(rows)

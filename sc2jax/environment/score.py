@@ -23,6 +23,7 @@ from __future__ import annotations
 import jax.numpy as jnp
 import numpy as np
 
+from sc2jax.environment.fusion import set_static
 from sc2jax.environment.observation_tables import ScoreCumulative as C
 from sc2jax.environment.production import trained_type
 from sc2jax.environment.state import EnvState, Owner, Units
@@ -78,15 +79,14 @@ def after_loop(state: EnvState, old_units: Units, died, minerals, vespene, spent
                              & (units.queue[:, 0] == 0))
     income = jnp.stack([minerals, vespene]) * LOOPS_PER_RATE_MINUTE
     rate = state.collection_rate + (income - state.collection_rate) * RATE_SMOOTHING
-    cumulative = (state.score_cumulative
-                  .at[C.killed_value_units].add(killed)
-                  .at[C.collected_minerals].add(minerals.astype(jnp.int32))
-                  .at[C.collected_vespene].add(vespene.astype(jnp.int32))
-                  .at[C.spent_minerals].add(spent)
-                  .at[C.idle_worker_time].add(idle_workers)
-                  .at[C.idle_production_time].add(idle_producers)
-                  .at[C.collection_rate_minerals].set(jnp.round(rate[0]).astype(jnp.int32))
-                  .at[C.collection_rate_vespene].set(jnp.round(rate[1]).astype(jnp.int32)))
+    old = state.score_cumulative
+    added = {C.killed_value_units: killed, C.collected_minerals: minerals.astype(jnp.int32),
+             C.collected_vespene: vespene.astype(jnp.int32), C.spent_minerals: spent,
+             C.idle_worker_time: idle_workers, C.idle_production_time: idle_producers}
+    cumulative = set_static(old, {
+        **{int(i): old[i] + v for i, v in added.items()},
+        int(C.collection_rate_minerals): jnp.round(rate[0]).astype(jnp.int32),
+        int(C.collection_rate_vespene): jnp.round(rate[1]).astype(jnp.int32)})
     return state.replace(score_cumulative=cumulative, collection_rate=rate)
 
 

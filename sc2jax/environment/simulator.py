@@ -25,6 +25,7 @@ from sc2jax.environment.actions import apply_action
 from sc2jax.environment.availability import CARD_TABLE
 from sc2jax.environment.dense import DenseAction, check_dense_action
 from sc2jax.environment.dynamics import game_loop
+from sc2jax.environment.fusion import set_static
 from sc2jax.environment.lazy import lazy_where, smallest_fit
 from sc2jax.environment.minigames import get_map
 from sc2jax.environment.observation import observe
@@ -255,8 +256,10 @@ class Simulator:
                 units, minerals, next_tag = economy.units, economy.minerals, economy.next_tag
                 spent = economy.spent
                 events = events._replace(created=economy.created)
-            vital = state.score_by_vital.at[0, 0].add(events.damage_dealt).at[1, 0].add(
-                events.damage_taken)
+            vital = state.score_by_vital  # [3, 3]; no scatter in the loop (`set_static`).
+            vital = set_static(vital, {
+                0: set_static(vital[0], {0: vital[0, 0] + events.damage_dealt}),
+                1: set_static(vital[1], {0: vital[1, 0] + events.damage_taken})})
             new = state.replace(units=units, key=key, game_loop=state.game_loop + 1,
                                 score_by_vital=vital, minerals=minerals, next_tag=next_tag,
                                 vespene=state.vespene + events.vespene.astype(jnp.int32))
