@@ -36,9 +36,10 @@ def set_static(x, values: dict):
 
     Args:
       x: an array [N, ...].
-      values: index in [0, N) -> a value of shape x.shape[1:] (cast to x's dtype).
+      values: index in [0, N) -> a value broadcastable to x.shape[1:] (cast to x's
+        dtype).
     """
     x = jnp.asarray(x)
-    rows = [jnp.asarray(values[i], x.dtype)[None] if i in values else x[i:i + 1]
-            for i in range(x.shape[0])]
+    row = lambda v: jnp.broadcast_to(jnp.asarray(v, x.dtype), x.shape[1:])[None]  # noqa: E731
+    rows = [row(values[i]) if i in values else x[i:i + 1] for i in range(x.shape[0])]
     return jnp.concatenate(rows)

@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 
 from sc2jax.environment import render
-from sc2jax.environment.fusion import materialize
+from sc2jax.environment.fusion import materialize, set_static
 from sc2jax.environment.render import ratio_255
 from sc2jax.environment.state import Owner
 from sc2jax.environment.units import UNIT_DATA
@@ -24,6 +24,20 @@ def test_materialize_is_an_identity():
     # Inside a larger program, where XLA may fuse around it.
     doubled = jax.jit(lambda a: materialize(a * 2)[np.array([2, 0, 3])] >> 1)(x)
     np.testing.assert_array_equal(doubled, x[[2, 0, 3]])
+
+
+def test_set_static_writes_the_rows_it_is_given_without_a_scatter():
+    x = np.arange(12, dtype=np.int32).reshape(4, 3)
+    values = {0: [7, 8, 9], 2: np.int64(5)}
+    expected = x.copy()
+    expected[0], expected[2] = [7, 8, 9], 5
+    np.testing.assert_array_equal(set_static(x, values), expected)
+    batch = np.stack([x, x + 1])
+    rows = jax.jit(jax.vmap(lambda a: set_static(a, {1: a[1] * 2})))(batch)
+    np.testing.assert_array_equal(rows[:, 1], batch[:, 1] * 2)
+    np.testing.assert_array_equal(rows[:, [0, 2, 3]], batch[:, [0, 2, 3]])
+    hlo = jax.jit(lambda a: set_static(a, {1: a[0]})).lower(x).as_text()
+    assert "scatter" not in hlo
 
 
 def test_pack_fields_fit_their_words_without_overlap():
