@@ -101,7 +101,7 @@ def compile_small_loops_whole(max_bytes: int = SMALL_LOOP_BYTES) -> None:
     By default each operation of a loop's body is a kernel of its own, dispatched one
     after another: about 1,300 of them in an agent step's game loops on MoveToBeacon at
     one environment. A loop whose body XLA can compile whole (no scatter, sort or
-    custom call: MoveToBeacon's and CollectMineralShards' game loops) runs as one kernel
+    custom call: the game loops of the first three mini-games) runs as one kernel
     instead, with the same results; at one environment an agent step then runs
     1.03-1.44x faster (docs/benchmarks.md). It changes the whole process's CPU
     compilation, so it is the caller's choice (`python -m sc2jax.experiments.benchmark`

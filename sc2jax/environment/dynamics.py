@@ -291,8 +291,9 @@ def game_loop(units: Units, key, playable, bursts: bool = False, workers: bool =
         fires = jnp.zeros(n, bool)
     single = fires & (data.burst <= 0) if bursts else fires
     hits = jnp.where(single, _damage_per_hit(data, safe_target), 0.0)
-    # Sums over the [N, N] pairs, not scatters (`fusion.set_static`); exact in any order,
-    # as damage comes in halves of hit points (at least 0.5 a hit).
+    # Sums over the [N, N] pairs, not scatters, so that the loop can be compiled whole
+    # (`devices.compile_small_loops_whole`); exact in any order, as damage comes in
+    # halves of hit points (at least 0.5 a hit).
     hit_by = safe_target[None, :] == rows[:, None]  # [victim, attacker]
     damage = (jnp.sum(jnp.where(hit_by, hits[None, :], 0.0), axis=1) if combat
               else jnp.zeros(n, jnp.float32))
