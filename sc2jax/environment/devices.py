@@ -103,7 +103,7 @@ def compile_small_loops_whole(max_bytes: int = SMALL_LOOP_BYTES) -> None:
     one environment. A loop whose body XLA can compile whole (no scatter, sort or
     custom call: the game loops of the first three mini-games) runs as one kernel
     instead, with the same results; at one environment an agent step then runs
-    1.03-1.44x faster (docs/benchmarks.md). It changes the whole process's CPU
+    1.03-1.84x faster (docs/benchmarks.md). It changes the whole process's CPU
     compilation, so it is the caller's choice (`python -m sc2jax.experiments.benchmark`
     makes it); a value already in `XLA_FLAGS` is kept.
 
