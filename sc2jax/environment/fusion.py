@@ -32,7 +32,7 @@ def set_static(x, values: dict):
 
     XLA's CPU backend compiles a while loop whose body has a scatter as a loop of
     separate kernels (`devices.compile_small_loops_whole`); `x.at[i].set(v)` with a
-    constant i is a scatter.
+    constant i is a scatter, which XLA does not always turn back into a slice update.
 
     Args:
       x: an array [N, ...].

@@ -396,11 +396,11 @@ class Renderer:
         # Each plane is written once, and each layer picks its plane by a `where` chain:
         # a gather from the planes stacked on a layer axis makes XLA write the stack
         # and the layers with that axis first, and copy both to the batch-major layout.
-        stacked = [materialize(planes[p].astype(jnp.int32)) for p in order]
+        written = [materialize(planes[p].astype(jnp.int32)) for p in order]
         source = np.asarray(source)
-        chosen = stacked[0][None]
+        chosen = written[0][None]
         for k in range(1, len(order)):
-            chosen = jnp.where(column(source == k), stacked[k][None], chosen)
+            chosen = jnp.where(column(source == k), written[k][None], chosen)
         layers = jnp.right_shift(chosen, column(shift)) & column(mask)
         if any(m != 1 for m in multiplier):
             layers = jnp.minimum(layers * column(multiplier), column(cap))

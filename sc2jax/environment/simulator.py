@@ -256,10 +256,9 @@ class Simulator:
                 units, minerals, next_tag = economy.units, economy.minerals, economy.next_tag
                 spent = economy.spent
                 events = events._replace(created=economy.created)
-            vital = state.score_by_vital  # [3, 3]; no scatter in the loop (`set_static`).
-            vital = set_static(vital, {
-                0: set_static(vital[0], {0: vital[0, 0] + events.damage_dealt}),
-                1: set_static(vital[1], {0: vital[1, 0] + events.damage_taken})})
+            vital = state.score_by_vital.reshape(-1)  # [3, 3]: life dealt, life taken.
+            vital = set_static(vital, {0: vital[0] + events.damage_dealt,
+                                       3: vital[3] + events.damage_taken}).reshape(3, 3)
             new = state.replace(units=units, key=key, game_loop=state.game_loop + 1,
                                 score_by_vital=vital, minerals=minerals, next_tag=next_tag,
                                 vespene=state.vespene + events.vespene.astype(jnp.int32))
