@@ -1,7 +1,7 @@
 """One game loop of unit behaviour: targets, movement, collisions, attacks and deaths.
 
 All per-unit logic is vectorised over the N slots, and pairs of units over [N, N] arrays;
-simultaneous damage is combined with scatter-add. On a map whose two sides hold separate
+simultaneous damage is summed over the pairs. On a map whose two sides hold separate
 slot ranges (`team_split`), combat looks only at the pairs across the split: blocks of
 [S, N - S] and [N - S, S] instead of [N, N]. Orders (`state.Order`) are executed as the game
 does for the mini-games:
@@ -126,6 +126,19 @@ def _rows(blocks: list[PairBlock], per_block):
     """[N, ...]: `per_block(block)` ([R, ...] for each block's rows) in slot order."""
     parts = [per_block(block) for block in blocks]
     return parts[0] if len(parts) == 1 else jnp.concatenate(parts)
+
+
+def _cols(blocks: list[PairBlock], per_block):
+    """[N, ...]: `per_block(block)` ([C, ...] for each block's columns) in slot order."""
+    parts = sorted(((block.cols.start, per_block(block)) for block in blocks),
+                   key=lambda part: part[0])
+    return parts[0][1] if len(parts) == 1 else jnp.concatenate([p for _, p in parts])
+
+
+def _hit_by(block: PairBlock, target):
+    """bool[R, C]: whether each row's `target` (int32[N], in its block's columns where it
+    matters) is each column."""
+    return block.column(target[block.rows])[:, None] == jnp.arange(block.gap.shape[1])
 
 
 def pop_order(units: Units, done) -> Units:
@@ -281,7 +294,7 @@ def game_loop(units: Units, key, playable, bursts: bool = False, workers: bool =
     turns = squared_length(face_vec) > 1e-10
     facing = jnp.where(turns, jnp.arctan2(face_vec[:, 1], face_vec[:, 0]), units.facing)
 
-    # Attacks: instant hits, combined with scatter-add. `cooldown` is the loops left
+    # Attacks: instant hits, summed by target. `cooldown` is the loops left
     # before the weapon is ready at the start of this loop; a weapon fires once that is
     # <= 0, keeps the fraction of a loop it was late by (in (-1, 0]), and then waits
     # its cooldown plus a jitter of -1..+2 loops. A ready weapon that does not fire
@@ -291,12 +304,15 @@ def game_loop(units: Units, key, playable, bursts: bool = False, workers: bool =
         fires = jnp.zeros(n, bool)
     single = fires & (data.burst <= 0) if bursts else fires
     hits = jnp.where(single, _damage_per_hit(data, safe_target), 0.0)
-    # Sums over the [N, N] pairs, not scatters, so that the loop can be compiled whole
+    # Sums over each block's pairs, not scatters, so that the loop can be compiled whole
     # (`devices.compile_small_loops_whole`); exact in any order, as damage comes in
-    # halves of hit points (at least 0.5 a hit).
-    hit_by = safe_target[None, :] == rows[:, None]  # [victim, attacker]
-    damage = (jnp.sum(jnp.where(hit_by, hits[None, :], 0.0), axis=1) if combat
-              else jnp.zeros(n, jnp.float32))
+    # halves of hit points (at least 0.5 a hit). A row's column is only used where it
+    # fires or hits, and then its target is in that block's columns.
+    if combat:
+        damage = _cols(blocks, lambda b: jnp.sum(
+            jnp.where(_hit_by(b, safe_target), hits[b.rows, None], 0.0), axis=0))
+    else:
+        damage = jnp.zeros(n, jnp.float32)
     # Volatile bursts: a unit that attacks with one dies, and one killed by this loop's
     # other damage bursts too (a single round: no map has bursting units on both sides).
     exploded = jnp.zeros(n, bool)
@@ -325,7 +341,8 @@ def game_loop(units: Units, key, playable, bursts: bool = False, workers: bool =
     # whose ally within its acquisition range was hit.
     new_target = target
     if combat:
-        attacker = jnp.max(jnp.where(hit_by & fires[None, :], rows[None, :], -1), axis=1)
+        attacker = _cols(blocks, lambda b: jnp.max(jnp.where(
+            _hit_by(b, safe_target) & fires[b.rows, None], rows[b.rows, None], -1), axis=0))
         called = _rows(blocks, lambda block: _called(units, data, block, fires, safe_target,
                                                      attacker))
         answer = jnp.where(attacker >= 0, attacker, called)
