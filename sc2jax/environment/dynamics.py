@@ -141,6 +141,18 @@ def _hit_by(block: PairBlock, target):
     return block.column(target[block.rows])[:, None] == jnp.arange(block.gap.shape[1])
 
 
+def _cooldown_jitter(key, size: int):
+    """float32[size]: each weapon's cooldown jitter, uniform in {-1, 0, 1, 2} loops.
+
+    The values of `jax.random.randint(key, (size,), -1, 3)`, drawn once: randint draws
+    two words of bits and, for a span of 4, uses only the second's low bits; XLA does
+    not always drop the unused draw, a loop of its own per game loop (docs/benchmarks.md).
+    """
+    _, low = jax.random.split(key)
+    bits = jax.random.bits(low, (size,), jnp.uint32) & 3
+    return bits.astype(jnp.float32) - 1.0
+
+
 def pop_order(units: Units, done) -> Units:
     """Advances the order queue of units where `done` (bool[N]) holds."""
     shift = lambda x, fill: jnp.where(  # noqa: E731
@@ -332,7 +344,7 @@ def game_loop(units: Units, key, playable, bursts: bool = False, workers: bool =
         dealt = jnp.concatenate([splash.sum(axis=1) for splash in splashes])
         hits = hits + jnp.where(exploding, dealt, 0.0)
         damage = damage + received(exploding)
-    jitter = jax.random.randint(key, (jitter_slots or n,), -1, 3)[:n].astype(jnp.float32)
+    jitter = _cooldown_jitter(key, jitter_slots or n)[:n]
     ready = units.cooldown <= 0.0
     cooldown = jnp.where(fires, units.cooldown + data.cooldown + jitter - 1.0,
                          jnp.where(ready, 0.0, units.cooldown - 1.0))

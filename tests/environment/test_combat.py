@@ -17,7 +17,7 @@ import pytest
 
 from sc2jax.environment import FUNCTIONS, to_dense
 from sc2jax.environment.agents import random_action
-from sc2jax.environment.dynamics import LoopEvents, game_loop
+from sc2jax.environment.dynamics import LoopEvents, _cooldown_jitter, game_loop
 from sc2jax.environment.minigames import get_map
 from sc2jax.environment.minigames.wave_combat import LEFT, MARINE_SLOTS, RIGHT, lineup_offset
 from sc2jax.environment.state import Order, Outcome, Owner, place
@@ -122,6 +122,18 @@ def test_idle_units_answer_an_attack_on_an_ally_within_their_acquisition_range()
     after, _ = run(after, 8)
     assert float(after.pos[2, 0]) < 34.0 and float(after.pos[3, 0]) == pytest.approx(36.6)
     assert int(after.target[3]) == -1
+
+
+def test_cooldown_jitter_is_randints_draw():
+    # One draw of bits gives randint's values (so episodes are those of randint's
+    # stream), each of -1..2 about a quarter of the time.
+    for seed in range(20):
+        key = jax.random.PRNGKey(seed)
+        expected = jax.random.randint(key, (28,), -1, 3).astype(jnp.float32)
+        np.testing.assert_array_equal(_cooldown_jitter(key, 28), expected)
+    counts = np.bincount(np.asarray(_cooldown_jitter(jax.random.PRNGKey(0), 4000) + 1,
+                                    np.int32), minlength=4)
+    assert len(counts) == 4 and counts.min() > 900
 
 
 def test_combat_across_a_team_split_is_combat_over_all_pairs():
