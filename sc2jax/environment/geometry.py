@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import dataclasses
 
+import jax
 import jax.numpy as jnp
 import numpy as np
 
@@ -134,10 +135,13 @@ class Minimap:
         return jnp.stack([wx, wy], axis=-1)
 
     def pixel_centers(self):
+        """Returns (xs float32[mx], ys float32[my]) as numpy: the minimap never moves, so
+        what depends on them alone is computed once, while tracing (in float64, so that
+        a centre on a cell edge is exactly on it)."""
         mx, my = self.size
-        xs = (jnp.arange(mx, dtype=jnp.float32) + 0.5) / self.pixels_per_unit
-        ys = self.map_height - (jnp.arange(my, dtype=jnp.float32) + 0.5) / self.pixels_per_unit
-        return xs, ys
+        xs = (np.arange(mx) + 0.5) / self.pixels_per_unit
+        ys = self.map_height - (np.arange(my) + 0.5) / self.pixels_per_unit
+        return xs.astype(np.float32), ys.astype(np.float32)
 
 
 def clamp_camera(geometry: MapGeometry, center):
@@ -160,6 +164,8 @@ def cell_lookup(grid: np.ndarray, map_height: int, xs, ys, fill=0):
       [H, W] grid values.
     """
     h, w = grid.shape
+    if isinstance(xs, np.ndarray) and isinstance(ys, np.ndarray):
+        return _static_cell_lookup(grid, map_height, xs, ys, fill)
     cx = jnp.floor(xs).astype(jnp.int32)
     cy = (map_height - 1 - jnp.floor(ys)).astype(jnp.int32)
     # Column and row cells, -1 outside the map: computed once, not per pixel.
@@ -168,3 +174,27 @@ def cell_lookup(grid: np.ndarray, map_height: int, xs, ys, fill=0):
     inside = (cy >= 0)[:, None] & (cx >= 0)[None, :]
     values = jnp.asarray(grid)[jnp.maximum(cy, 0)[:, None], jnp.maximum(cx, 0)[None, :]]
     return jnp.where(inside, values, jnp.asarray(fill, values.dtype))
+
+
+def _static_cell_lookup(grid, map_height: int, xs: np.ndarray, ys: np.ndarray, fill):
+    """`cell_lookup` at fixed (numpy) points: all numpy for a numpy grid; for a traced
+    grid, strided slices where the cells are evenly spaced (the minimap at a whole
+    number of pixels per cell or cells per pixel), and a gather elsewhere."""
+    h, w = grid.shape
+    cx = np.floor(xs).astype(np.int32)
+    cy = (map_height - 1 - np.floor(ys)).astype(np.int32)
+    inside = ((cy >= 0) & (cy < h))[:, None] & ((cx >= 0) & (cx < w))[None, :]
+    cx, cy = np.clip(cx, 0, w - 1), np.clip(cy, 0, h - 1)
+    if isinstance(grid, np.ndarray):
+        return np.where(inside, grid[cy[:, None], cx[None, :]], np.asarray(fill, grid.dtype))
+    values = _take_static(_take_static(grid, cy, 0), cx, 1)
+    return values if inside.all() else jnp.where(inside, values, jnp.asarray(fill, grid.dtype))
+
+
+def _take_static(x, index: np.ndarray, axis: int):
+    """x's entries at fixed indices along `axis`: a strided slice for evenly spaced
+    increasing indices, or a gather."""
+    step = index[1] - index[0] if len(index) > 1 else 1
+    if step > 0 and np.array_equal(index, index[0] + step * np.arange(len(index))):
+        return jax.lax.slice_in_dim(x, int(index[0]), int(index[-1]) + 1, int(step), axis)
+    return jnp.take(x, index, axis=axis)

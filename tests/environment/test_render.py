@@ -6,6 +6,7 @@ import pytest
 
 from sc2jax.environment import render
 from sc2jax.environment.fusion import materialize, set_static
+from sc2jax.environment.geometry import Minimap, cell_lookup
 from sc2jax.environment.render import ratio_255
 from sc2jax.environment.state import Owner
 from sc2jax.environment.units import UNIT_DATA
@@ -126,3 +127,19 @@ def test_unit_layers_match_the_per_pixel_reference(map_name, paints_every_word,
             np.testing.assert_array_equal(got[names.index(name)], want, err_msg=name)
         covered += int((got[names.index("unit_density")] > 1).sum())
     assert covered > 0  # Some pixels had overlapping units, so the draw order was tested.
+
+
+@pytest.mark.parametrize("size", [64, 32, 24, 84])
+@pytest.mark.parametrize("shift", [0.0, 3.0])
+def test_minimap_lookups_at_fixed_points_match_the_traced_lookup(size, shift):
+    # The minimap's pixel centres are numpy, so its lookups are slices (64, 32: whole
+    # cells per pixel or pixels per cell) or a gather (24, 84, or shifted: some pixels
+    # off the map) made while tracing; the same cells as the lookup at traced points.
+    xs, ys = Minimap((size, size), (64, 64)).pixel_centers()
+    xs, ys = xs - shift, ys + shift
+    grid = np.random.default_rng(0).integers(0, 100, (64, 64)).astype(np.int32)
+    traced = jax.jit(lambda g, x, y: cell_lookup(g, 64, x, y, -1))(grid, xs, ys)
+    fixed_grid = jax.jit(lambda g: cell_lookup(g, 64, xs, ys, -1))(grid)
+    np.testing.assert_array_equal(fixed_grid, traced)
+    np.testing.assert_array_equal(cell_lookup(grid, 64, xs, ys, -1), traced)
+    assert (np.asarray(traced) == -1).any() == (shift > 0)
