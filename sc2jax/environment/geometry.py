@@ -178,8 +178,9 @@ def cell_lookup(grid: np.ndarray, map_height: int, xs, ys, fill=0):
 
 def _static_cell_lookup(grid, map_height: int, xs: np.ndarray, ys: np.ndarray, fill):
     """`cell_lookup` at fixed (numpy) points: all numpy for a numpy grid; for a traced
-    grid, strided slices where the cells are evenly spaced (the minimap at a whole
-    number of pixels per cell or cells per pixel), and a gather elsewhere."""
+    grid, strided slices where the cells are evenly spaced and distinct (a minimap of
+    one pixel per cell, or of a whole number of cells per pixel), and a gather
+    elsewhere."""
     h, w = grid.shape
     cx = np.floor(xs).astype(np.int32)
     cy = (map_height - 1 - np.floor(ys)).astype(np.int32)

@@ -132,9 +132,9 @@ def test_unit_layers_match_the_per_pixel_reference(map_name, paints_every_word,
 @pytest.mark.parametrize("size", [64, 32, 24, 84])
 @pytest.mark.parametrize("shift", [0.0, 3.0])
 def test_minimap_lookups_at_fixed_points_match_the_traced_lookup(size, shift):
-    # The minimap's pixel centres are numpy, so its lookups are slices (64, 32: whole
-    # cells per pixel or pixels per cell) or a gather (24, 84, or shifted: some pixels
-    # off the map) made while tracing; the same cells as the lookup at traced points.
+    # The minimap's pixel centres are numpy, so its lookups are slices (64, 32: one or
+    # two cells per pixel) or a gather (24, 84, or shifted: some pixels off the map)
+    # made while tracing; the same cells as the lookup at traced points.
     xs, ys = Minimap((size, size), (64, 64)).pixel_centers()
     xs, ys = xs - shift, ys + shift
     grid = np.random.default_rng(0).integers(0, 100, (64, 64)).astype(np.int32)
