@@ -157,11 +157,12 @@ def cell_lookup(grid: np.ndarray, map_height: int, xs, ys, fill=0):
       grid: the map grid, row 0 at the top.
       map_height: the map height in cells.
       xs: float32[W] world x per output column.
-      ys: float32[H] world y per output row.
+      ys: float32[H] world y per output row (xs and ys both numpy: the cells are
+        found while tracing, `_static_cell_lookup`).
       fill: the value outside the map.
 
     Returns:
-      [H, W] grid values.
+      [H, W] grid values (numpy where grid, xs and ys all are).
     """
     h, w = grid.shape
     if isinstance(xs, np.ndarray) and isinstance(ys, np.ndarray):
