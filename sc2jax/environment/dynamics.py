@@ -128,11 +128,13 @@ def _rows(blocks: list[PairBlock], per_block):
     return parts[0] if len(parts) == 1 else jnp.concatenate(parts)
 
 
-def _cols(blocks: list[PairBlock], per_block):
-    """[N, ...]: `per_block(block)` ([C, ...] for each block's columns) in slot order."""
-    parts = sorted(((block.cols.start, per_block(block)) for block in blocks),
-                   key=lambda part: part[0])
-    return parts[0][1] if len(parts) == 1 else jnp.concatenate([p for _, p in parts])
+def _cols(blocks: list[PairBlock], parts: list):
+    """[N, ...]: `parts` ([C, ...] for each block's columns, in the blocks' order) in slot
+    order."""
+    if len(parts) == 1:
+        return parts[0]
+    return jnp.concatenate([parts[i] for i in sorted(range(len(blocks)),
+                                                     key=lambda i: blocks[i].cols.start)])
 
 
 def _hit_by(block: PairBlock, target):
@@ -321,8 +323,9 @@ def game_loop(units: Units, key, playable, bursts: bool = False, workers: bool =
     # halves of hit points (at least 0.5 a hit). A row's column is only used where it
     # fires or hits, and then its target is in that block's columns.
     if combat:
-        damage = _cols(blocks, lambda b: jnp.sum(
-            jnp.where(_hit_by(b, safe_target), hits[b.rows, None], 0.0), axis=0))
+        hit_by = [_hit_by(block, safe_target) for block in blocks]
+        damage = _cols(blocks, [jnp.sum(jnp.where(hit, hits[b.rows, None], 0.0), axis=0)
+                                for b, hit in zip(blocks, hit_by)])
     else:
         damage = jnp.zeros(n, jnp.float32)
     # Volatile bursts: a unit that attacks with one dies, and one killed by this loop's
@@ -353,8 +356,9 @@ def game_loop(units: Units, key, playable, bursts: bool = False, workers: bool =
     # whose ally within its acquisition range was hit.
     new_target = target
     if combat:
-        attacker = _cols(blocks, lambda b: jnp.max(jnp.where(
-            _hit_by(b, safe_target) & fires[b.rows, None], rows[b.rows, None], -1), axis=0))
+        attacker = _cols(blocks, [
+            jnp.max(jnp.where(hit & fires[b.rows, None], rows[b.rows, None], -1), axis=0)
+            for b, hit in zip(blocks, hit_by)])
         called = _rows(blocks, lambda block: _called(units, data, block, fires, safe_target,
                                                      attacker))
         answer = jnp.where(attacker >= 0, attacker, called)
