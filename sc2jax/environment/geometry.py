@@ -157,18 +157,20 @@ def cell_lookup(grid: np.ndarray, map_height: int, xs, ys, fill=0):
       grid: the map grid, row 0 at the top.
       map_height: the map height in cells.
       xs: float32[W] world x per output column.
-      ys: float32[H] world y per output row (xs and ys both numpy: the cells are
-        found while tracing, `_static_cell_lookup`).
+      ys: float32[H] world y per output row (xs and ys both numpy: the lookup is
+        made while tracing, `_static_cell_lookup`).
       fill: the value outside the map.
 
     Returns:
       [H, W] grid values (numpy where grid, xs and ys all are).
     """
     h, w = grid.shape
-    if isinstance(xs, np.ndarray) and isinstance(ys, np.ndarray):
-        return _static_cell_lookup(grid, map_height, xs, ys, fill)
-    cx = jnp.floor(xs).astype(jnp.int32)
-    cy = (map_height - 1 - jnp.floor(ys)).astype(jnp.int32)
+    static = isinstance(xs, np.ndarray) and isinstance(ys, np.ndarray)
+    xp = np if static else jnp
+    cx = xp.floor(xs).astype(np.int32)
+    cy = (map_height - 1 - xp.floor(ys)).astype(np.int32)
+    if static:
+        return _static_cell_lookup(grid, cx, cy, fill)
     # Column and row cells, -1 outside the map: computed once, not per pixel.
     cx = materialize(jnp.where((cx >= 0) & (cx < w), cx, -1))
     cy = materialize(jnp.where((cy >= 0) & (cy < h), cy, -1))
@@ -177,14 +179,12 @@ def cell_lookup(grid: np.ndarray, map_height: int, xs, ys, fill=0):
     return jnp.where(inside, values, jnp.asarray(fill, values.dtype))
 
 
-def _static_cell_lookup(grid, map_height: int, xs: np.ndarray, ys: np.ndarray, fill):
-    """`cell_lookup` at fixed (numpy) points: all numpy for a numpy grid; for a traced
-    grid, strided slices where the cells are evenly spaced and distinct (a minimap of
-    one pixel per cell, or of a whole number of cells per pixel), and a gather
-    elsewhere."""
+def _static_cell_lookup(grid, cx: np.ndarray, cy: np.ndarray, fill):
+    """`cell_lookup` at fixed (numpy) cells cx int32[W] and cy int32[H]: all numpy for a
+    numpy grid; for a traced grid, strided slices where the cells are evenly spaced and
+    distinct (a minimap of one pixel per cell, or of a whole number of cells per pixel),
+    and a gather elsewhere."""
     h, w = grid.shape
-    cx = np.floor(xs).astype(np.int32)
-    cy = (map_height - 1 - np.floor(ys)).astype(np.int32)
     inside = ((cy >= 0) & (cy < h))[:, None] & ((cx >= 0) & (cx < w))[None, :]
     cx, cy = np.clip(cx, 0, w - 1), np.clip(cy, 0, h - 1)
     if isinstance(grid, np.ndarray):
