@@ -1,6 +1,8 @@
 """The contract's jit/vmap half: a batched step equals the single steps it batches (in a
 file of its own, so that test workers share the contract's compilation work)."""
 
+import dataclasses
+
 import jax
 import numpy as np
 import pytest
@@ -12,16 +14,20 @@ from .conftest import PARAMS, compiled, small_sim
 MAP_NAMES = sorted(MAPS)
 
 
-# One map of each engine: the economy maps' and the wave maps' batched steps compile all
-# their slot sizes (CollectMineralsAndGas and DefeatZerglingsAndBanelings took 107 and
-# 112 s of a 2-core suite). DefeatZerglingsAndBanelings covers DefeatRoaches' paths and
-# more (the banelings' bursts). The economy maps are left out: beyond JAX's own batching
-# rules, their batched step relies on `lazy.smallest_fit`'s (the batch's largest need),
-# which the wave map here and tests/environment/test_lazy.py (nested vmaps too) check.
+# The simple engine's maps and one wave map, run on all its slots (`use_slot_sizes=False`). Its batched step on its slot sizes compiles every size, single
+# and batched (75 s of a 2-core suite, against about 27 s on all slots). The slot sizes
+# are checked apart: tests/environment/test_combat.py plays the wave maps on their leading
+# slots as on all slots, and tests/environment/test_lazy.py checks `smallest_fit`'s
+# batching rule (the batch's largest need, nested vmaps too). DefeatZerglingsAndBanelings
+# covers DefeatRoaches' paths and more (the banelings' bursts). The economy maps are left
+# out (CollectMineralsAndGas's batched step took 107 s): beyond JAX's own batching rules,
+# theirs rests on the same `smallest_fit`.
 @pytest.mark.parametrize("map_name", [m for m in MAP_NAMES if m not in (
     "BuildMarines", "CollectMineralsAndGas", "DefeatRoaches")])
 def test_vmap_matches_single(map_name):
     sim = small_sim(map_name)
+    if sim.game.slot_sizes is not None:
+        sim = dataclasses.replace(sim, use_slot_sizes=False)
     reset, step = compiled(sim)
     vreset, vstep = compiled(sim, batched=True)
     keys = jax.random.split(jax.random.PRNGKey(5), 3)
