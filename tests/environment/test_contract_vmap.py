@@ -16,7 +16,7 @@ MAP_NAMES = sorted(MAPS)
 
 # The simple engine's maps and one wave map, run on all its slots
 # (`use_slot_sizes=False`): its batched step on its slot sizes compiles every size, single
-# and batched (75 s of a 2-core suite, against about 27 s on all slots). The slot sizes
+# and batched (75 s in a 2-core suite; on all slots, 30 s). The slot sizes
 # are checked apart: tests/environment/test_combat.py plays the wave maps on their leading
 # slots as on all slots, and tests/environment/test_lazy.py checks `smallest_fit`'s
 # batching rule (the batch's largest need, nested vmaps too). DefeatZerglingsAndBanelings
