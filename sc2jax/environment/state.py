@@ -208,6 +208,26 @@ class EnvState:
     key: jax.Array
 
 
+def _new_units(units: Units, k: int, unit_type, owner, positions, tags, selected) -> dict:
+    """Field -> the values of k new units (complete, at full health, with no orders), each
+    broadcast to [k, ...] (`place`, `place_where`)."""
+    types = jnp.broadcast_to(jnp.asarray(unit_type, jnp.int32), (k,))
+    data = UNIT_DATA
+    values = dict(
+        alive=True, type=types, owner=jnp.asarray(owner, jnp.int32), tag=tags,
+        pos=positions, facing=DEFAULT_FACING, health=jnp.asarray(data.max_health)[types],
+        shields=jnp.asarray(data.max_shields)[types], energy=0.0, cooldown=0.0,
+        orders=Order.NONE, order_unit=NO_TARGET, target=NO_TARGET, selected=selected,
+        groups=0, cargo=0.0, work=0.0, contents=jnp.asarray(data.contents)[types],
+        home=NO_TARGET, order_type=0, gas=False,
+        progress=jnp.asarray(data.build_time)[types], queue=0, queue_work=0.0,
+        rally_unit=NO_TARGET, rallied=False)
+    fields = {name: getattr(units, name) for name in values}
+    return {name: jnp.broadcast_to(jnp.asarray(value, fields[name].dtype),
+                                   (k,) + fields[name].shape[1:])
+            for name, value in values.items()}
+
+
 def place(units: Units, slots, unit_type, owner, positions, next_tag, selected=False):
     """Creates units in the given slots, complete, at full health, with no orders.
 
@@ -225,35 +245,36 @@ def place(units: Units, slots, unit_type, owner, positions, next_tag, selected=F
     """
     slots = jnp.asarray(slots)
     k = slots.shape[0]
-    types = jnp.broadcast_to(jnp.asarray(unit_type, jnp.int32), (k,))
-    data = UNIT_DATA
-
-    def put(field, values):
-        return field.at[slots].set(values, mode="drop")
-
-    units = units.replace(
-        alive=put(units.alive, True),
-        type=put(units.type, types),
-        owner=put(units.owner, jnp.broadcast_to(jnp.asarray(owner, jnp.int32), (k,))),
-        tag=put(units.tag, next_tag + jnp.arange(k, dtype=jnp.int32)),
-        pos=put(units.pos, positions),
-        facing=put(units.facing, DEFAULT_FACING),
-        health=put(units.health, jnp.asarray(data.max_health)[types]),
-        shields=put(units.shields, jnp.asarray(data.max_shields)[types]),
-        energy=put(units.energy, 0.0),
-        cooldown=put(units.cooldown, 0.0),
-        orders=put(units.orders, Order.NONE),
-        order_unit=put(units.order_unit, NO_TARGET),
-        target=put(units.target, NO_TARGET),
-        selected=put(units.selected, jnp.broadcast_to(jnp.asarray(selected), (k,))),
-        groups=put(units.groups, 0), cargo=put(units.cargo, 0.0), work=put(units.work, 0.0),
-        contents=put(units.contents, jnp.asarray(data.contents)[types]),
-        home=put(units.home, NO_TARGET), order_type=put(units.order_type, 0),
-        gas=put(units.gas, False),
-        progress=put(units.progress, jnp.asarray(data.build_time)[types]),
-        queue=put(units.queue, 0), queue_work=put(units.queue_work, 0.0),
-        rally_unit=put(units.rally_unit, NO_TARGET), rallied=put(units.rallied, False))
+    tags = next_tag + jnp.arange(k, dtype=jnp.int32)
+    new = _new_units(units, k, unit_type, owner, positions, tags, selected)
+    units = units.replace(**{name: getattr(units, name).at[slots].set(value, mode="drop")
+                             for name, value in new.items()})
     return units, next_tag + k
+
+
+def place_where(units: Units, where, unit_type, owner, positions, tags, selected=False):
+    """`place` in the slots where `where` (bool[N]) holds, each slot given its own
+    values: a select per field, not a scatter, so that a game loop that creates units
+    can be compiled whole (`devices.compile_small_loops_whole`).
+
+    Args:
+      units: the units.
+      where: bool[N] the slots to fill.
+      unit_type: `UnitType` (int or int32[N]).
+      owner: `Owner` (int or int32[N]).
+      positions: float32[N, 2].
+      tags: int32[N].
+      selected: bool or bool[N].
+
+    Returns:
+      The units.
+    """
+    n = units.num_slots
+    new = _new_units(units, n, unit_type, owner, positions, tags, selected)
+    return units.replace(**{
+        name: jnp.where(where.reshape((n,) + (1,) * (value.ndim - 1)), value,
+                        getattr(units, name))
+        for name, value in new.items()})
 
 
 class Outcome(enum.IntEnum):

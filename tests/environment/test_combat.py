@@ -20,7 +20,7 @@ from sc2jax.environment.agents import random_action
 from sc2jax.environment.dynamics import LoopEvents, _cooldown_jitter, game_loop
 from sc2jax.environment.minigames import get_map
 from sc2jax.environment.minigames.wave_combat import LEFT, MARINE_SLOTS, RIGHT, lineup_offset
-from sc2jax.environment.state import Order, Outcome, Owner, place
+from sc2jax.environment.state import Order, Outcome, Owner, place, place_where
 
 from .conftest import PARAMS, assert_trees_equal, compiled, random_actor, small_sim
 from .test_mechanics import make_units, with_orders
@@ -278,6 +278,31 @@ def test_wave_reset_keeps_survivors_health(name, reward, fresh):
     for before, after in zip(jax.tree_util.tree_leaves(jax.device_get(units)),
                              jax.tree_util.tree_leaves(u)):
         np.testing.assert_array_equal(np.asarray(before)[empty], np.asarray(after)[empty])
+
+
+def test_place_where_creates_what_place_creates_without_a_scatter():
+    units = _state("DefeatRoaches").units
+    n = units.num_slots
+    slots = np.array([3, 9, 20])
+    types = np.array([R, M, M], np.int32)
+    pos = np.array([[30.0, 28.0], [25.0, 27.5], [26.0, 29.0]], np.float32)
+    placed, tag = place(units, slots, types, Owner.SELF, pos, 40, selected=True)
+    where = np.zeros(n, bool)
+    where[slots] = True
+    every_type = np.full(n, Z, np.int32)  # Unused where not placed.
+    every_type[slots] = types
+    every_pos = np.zeros((n, 2), np.float32)
+    every_pos[slots] = pos
+    tags = np.zeros(n, np.int32)
+    tags[slots] = 40 + np.arange(3)
+    args = (where, every_type, Owner.SELF, every_pos, tags, True)
+    assert_trees_equal(place_where(units, *args), placed)
+    assert int(tag) == 43
+    assert "scatter" not in jax.jit(place_where).lower(units, *args).as_text()
+    # The wave reset, which runs inside the game loop, creates its units so.
+    game = get_map("DefeatZerglingsAndBanelings")
+    hlo = jax.jit(game.wave_reset).lower(_state("DefeatZerglingsAndBanelings")).as_text()
+    assert "scatter" not in hlo
 
 
 def test_wave_reset_adds_only_what_the_slots_hold_and_defeat_comes_first():

@@ -35,8 +35,8 @@ import numpy as np
 
 from sc2jax.environment.lazy import lazy_where
 from sc2jax.environment.minigames.base import MiniGame, flat_geometry, uniform_in_rect
-from sc2jax.environment.state import Outcome, Owner, Units, place
-from sc2jax.environment.units import UNIT_DATA, UnitType
+from sc2jax.environment.state import Outcome, Owner, Units, place, place_where
+from sc2jax.environment.units import UnitType
 
 REGION_1 = (22.0, 20.0, 44.0, 36.0)  # Playable Space (22.0002 in the map).
 LEFT = (23.9748, 25.0637, 27.9787, 31.0483)  # Spawn Region Left (region 4).
@@ -121,25 +121,33 @@ class WaveCombat(MiniGame):
     def wave_reset(self, state):
         """The next wave: survivors replaced (keeping health), reinforcements in the
         first free slots, a new side, the marines lined up and selected, new enemies.
-        Only the marines' slots are written: the empty slots stay as they were."""
+        Only the marines' slots are written: the empty slots stay as they were. Written
+        with selects, not scatters: it runs inside the game loop (`place_where`)."""
         key, sub = jax.random.split(state.key)
         marine_point, enemy_point = draw_sides(sub)
-        old, first = state.units, self.team_split
-        survivors = old.alive[first:]
+        old, enemies = state.units, len(self.ENEMIES)
+        survivors = old.alive[enemies:]
         free_rank = jnp.cumsum(~survivors) - 1
         fresh = ~survivors & (free_rank < self.REINFORCEMENTS)
         marines = survivors | fresh
         rank = jnp.where(survivors, jnp.cumsum(survivors) - 1, jnp.sum(survivors) + free_rank)
-        # The marines' slots; the others are out of range, which `place` ignores.
-        slots = jnp.where(marines, first + jnp.arange(survivors.shape[0]), old.num_slots)
-        units, _ = place(old, slots, UnitType.MARINE, Owner.SELF,
-                         lined_up(marine_point, rank), 0, selected=True)
-        health = jnp.where(survivors, old.health[first:], UNIT_DATA.max_health[UnitType.MARINE])
-        units = units.replace(tag=units.tag.at[slots].set(state.next_tag + rank, mode="drop"),
-                              health=units.health.at[slots].set(health, mode="drop"))
-        units, tag = self._spawn_enemies(units, enemy_point,
-                                         state.next_tag + jnp.sum(marines, dtype=jnp.int32))
-        return state.replace(units=units, next_tag=tag, key=key)
+        # The enemies' tags follow the marines'.
+        enemy_tag = state.next_tag + jnp.sum(marines, dtype=jnp.int32)
+        per_side = lambda enemy, marine: jnp.concatenate([  # noqa: E731
+            jnp.broadcast_to(jnp.asarray(enemy), (enemies,) + jnp.shape(marine)[1:]), marine])
+        m = survivors.shape[0]
+        units = place_where(
+            old, per_side(True, marines),
+            per_side(jnp.asarray(self.ENEMIES, jnp.int32),
+                     jnp.full(m, UnitType.MARINE, jnp.int32)),
+            per_side(Owner.ENEMY, jnp.full(m, Owner.SELF, jnp.int32)),
+            jnp.concatenate([enemy_point + jnp.asarray(self.OFFSETS),
+                             lined_up(marine_point, rank)]),
+            per_side(enemy_tag + jnp.arange(enemies, dtype=jnp.int32), state.next_tag + rank),
+            per_side(False, jnp.ones(m, bool)))
+        units = units.replace(health=jnp.where(per_side(False, survivors), old.health,
+                                               units.health))
+        return state.replace(units=units, next_tag=enemy_tag + enemies, key=key)
 
     def on_loop(self, state, events):
         first = self.team_split
