@@ -270,6 +270,7 @@ def place_where(units: Units, where, unit_type, owner, positions, tags, selected
       The units.
     """
     n = units.num_slots
+    where = jnp.asarray(where, bool)
     new = _new_units(units, n, unit_type, owner, positions, tags, selected)
     return units.replace(**{
         name: jnp.where(where.reshape((n,) + (1,) * (value.ndim - 1)), value,
