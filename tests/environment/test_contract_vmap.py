@@ -1,5 +1,6 @@
 """The contract's jit/vmap half: a batched step equals the single steps it batches (in a
-file of its own, so that test workers share the contract's compilation work)."""
+file of its own, so that the two test workers share the contract's work; the simple maps'
+single steps are the contract's programs, DefeatZerglingsAndBanelings' here are its own)."""
 
 import dataclasses
 
