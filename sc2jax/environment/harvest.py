@@ -29,7 +29,14 @@ import jax.numpy as jnp
 
 from sc2jax.environment.geometry import distances
 from sc2jax.environment.lazy import lazy_where
-from sc2jax.environment.state import NO_TARGET, Order, Units, leading_slots
+from sc2jax.environment.state import (
+    NO_TARGET,
+    Order,
+    Units,
+    first_slots,
+    leading_slots,
+    targeted_by,
+)
 from sc2jax.environment.units import LOOPS_PER_SECOND, UnitType
 
 REACH = 0.1
@@ -72,7 +79,7 @@ def nearest_depot(units: Units, eps=1e-12):
     """
     n = units.num_slots
     depot = units.complete & (units.type == UnitType.COMMAND_CENTER)
-    first = jnp.nonzero(depot, size=DEPOT_SLOTS, fill_value=n)[0]
+    first = first_slots(depot, DEPOT_SLOTS)
     return lazy_where(depot.sum() > DEPOT_SLOTS,
                       lambda u: _nearest_of(u, jnp.arange(n), eps), units,
                       _nearest_of(units, first, eps))
@@ -139,18 +146,22 @@ def _spread(units: Units, field, blocked, contents, field_slots):
     """
     n = units.num_slots
     rows = jnp.arange(n)
-    gathering = units.alive & (units.orders[:, 0] == Order.GATHER)
-    assigned = jnp.zeros(n, jnp.int32).at[jnp.clip(units.order_unit[:, 0], 0, n - 1)].add(
-        gathering.astype(jnp.int32))
+    # Counted over the field slots alone (`targeted_by`'s [N, F]): a blocked worker's
+    # field is a mineral field, so `field` lies among them where `blocked` holds.
     fields = leading_slots(units.alive & (units.type == UnitType.MINERAL_FIELD)
                            & (contents > 0), field_slots)
+    f = fields.shape[0]
+    gathering = units.alive & (units.orders[:, 0] == Order.GATHER)
+    aims = targeted_by(jnp.clip(units.order_unit[:, 0], 0, n - 1), f)
+    assigned = jnp.sum(aims & gathering[:, None], axis=0, dtype=jnp.int32)
     dist = distances(units.pos[field], leading_slots(units.pos, field_slots))
     near = fields[None, :] & (dist <= SPREAD_RADIUS)
-    cost = jnp.where(near, leading_slots(assigned, field_slots)[None, :] * 1000.0 + dist,
-                     jnp.inf)
+    cost = jnp.where(near, assigned[None, :] * 1000.0 + dist, jnp.inf)
     best = jnp.argmin(cost, axis=1).astype(jnp.int32)
-    first = jnp.full(n, n, jnp.int32).at[field].min(jnp.where(blocked, rows, n))
-    moves = blocked & (first[field] == rows) & (assigned[best] < assigned[field] - 1)
+    first = jnp.min(jnp.where(targeted_by(field, f) & blocked[:, None], rows[:, None], n),
+                    axis=0)
+    own = jnp.clip(field, 0, f - 1)
+    moves = blocked & (first[own] == rows) & (assigned[best] < assigned[own] - 1)
     return jnp.where(moves, best, field)
 
 
@@ -189,12 +200,15 @@ def harvest(units: Units, touching, depot, field_slots=None) -> tuple[
     finished = mining & (work <= 0)
     trip = jnp.where(refinery, GAS_PER_TRIP, MINERALS_PER_TRIP)
     take = jnp.where(finished, jnp.minimum(trip, units.contents[safe]), 0.0)
-    contents = units.contents.at[safe].add(-take)
+    # By target over [N, N] pairs, not scatters (`targeted_by`); the sum is exact in any
+    # order, as resources come in whole units.
+    aims = targeted_by(safe, n)
+    contents = units.contents - jnp.sum(jnp.where(aims, take[:, None], 0.0), axis=0)
 
     # Starting to mine: at the field, empty-handed, the field free; the lowest slot first.
-    occupied = jnp.zeros(n, bool).at[safe].max(mining & ~finished)
+    occupied = jnp.any(aims & (mining & ~finished)[:, None], axis=0)
     waiting = gather & ~mining & touching & field_ok & (units.cargo == 0)
-    first = jnp.full(n, n, jnp.int32).at[safe].min(jnp.where(waiting, rows, n))
+    first = jnp.min(jnp.where(aims & waiting[:, None], rows[:, None], n), axis=0)
     start = waiting & ~occupied[safe] & (first[safe] == rows)
     work = jnp.where(start, jnp.where(refinery, GAS_LOOPS, MINING_LOOPS),
                      jnp.where(finished, jnp.where(refinery, 0.0, LEAVE_LOOPS), work))

@@ -36,8 +36,18 @@ import numpy as np
 from sc2jax.environment import commands
 from sc2jax.environment.dynamics import pop_order
 from sc2jax.environment.geometry import squared_length
+from sc2jax.environment.lazy import lazy_where
 from sc2jax.environment.protocol_enums import ActionResult
-from sc2jax.environment.state import BUILD_QUEUE, NO_TARGET, Order, Owner, Units, place
+from sc2jax.environment.state import (
+    BUILD_QUEUE,
+    NO_TARGET,
+    Order,
+    Owner,
+    Units,
+    first_slots,
+    place_where,
+    targeted_by,
+)
 from sc2jax.environment.units import UNIT_DATA, UnitType
 
 MAX_SUPPLY = 200
@@ -185,7 +195,7 @@ def affordable(minerals, unit_type):
 
 def free_slots(units: Units, count: int):
     """int32[count]: the first `count` dead slots, ascending; N where there are fewer."""
-    return jnp.nonzero(~units.alive, size=count, fill_value=units.num_slots)[0].astype(jnp.int32)
+    return first_slots(~units.alive, count)
 
 
 class Economy(NamedTuple):
@@ -328,10 +338,12 @@ def cancel_construction(units: Units, minerals, next_tag):
         CANCEL_REFUND * _column("mineral_cost", units.type)), 0)).astype(jnp.int32)
     refineries = doomed & (units.type == UnitType.REFINERY)
     units = units.replace(alive=units.alive & ~doomed, selected=units.selected & ~doomed)
-    # The geysers come back in the Refineries' own slots.
-    geysers, tag = place(units, jnp.where(refineries, jnp.arange(units.num_slots),
-                                          units.num_slots),
-                         UnitType.VESPENE_GEYSER, Owner.NEUTRAL, units.pos, next_tag)
+    # The geysers come back in the Refineries' own slots (tagged as if every slot got
+    # one).
+    rows = jnp.arange(units.num_slots, dtype=jnp.int32)
+    geysers = place_where(units, refineries, UnitType.VESPENE_GEYSER, Owner.NEUTRAL,
+                          units.pos, next_tag + rows)
+    tag = next_tag + units.num_slots
     contents = jnp.where(refineries, units.contents, geysers.contents)
     return (geysers.replace(contents=contents), minerals + refund, tag,
             jnp.where(doomed.any(), 0, int(ActionResult.Error)).astype(jnp.int32))
@@ -377,8 +389,7 @@ def _place_arrivals(units: Units, minerals, next_tag, buildable):
     cost = jnp.where(ok, _column("mineral_cost", kind_b), 0)
     # The structure, unfinished; a Refinery replaces its geyser and takes its gas.
     safe_geyser = jnp.clip(geyser, 0, n - 1)
-    new, tag = place(units, jnp.where(ok, slot, n)[None], kind_b, Owner.SELF, site_b[None],
-                     next_tag)
+    new = place_where(units, ok & (rows == slot), kind_b, Owner.SELF, site_b, next_tag)
     is_refinery = kind_b == UnitType.REFINERY
     new = new.replace(
         progress=new.progress.at[slot].set(0.0, mode="drop"),
@@ -399,7 +410,7 @@ def _place_arrivals(units: Units, minerals, next_tag, buildable):
     units = jax.tree_util.tree_map(lambda a, b: jnp.where(ok, a, b), new, units)
     failed = arrived & is_builder & ~ok
     units = pop_order(units, failed)
-    return units, minerals - cost, jnp.where(ok, tag, next_tag), cost, ok & (rows == slot)
+    return units, minerals - cost, next_tag + ok.astype(jnp.int32), cost, ok & (rows == slot)
 
 
 def _construct(units: Units) -> Units:
@@ -412,7 +423,7 @@ def _construct(units: Units) -> Units:
     gap = (jnp.sqrt(squared_length(units.pos - units.pos[safe]))
            - _column("radius", units.type) - _column("radius", units.type[safe]))
     working = constructing & (target >= 0) & (gap <= 0.2)
-    worked = jnp.zeros(n, bool).at[safe].max(working)
+    worked = jnp.any(targeted_by(safe, n) & working[:, None], axis=0)
     build_time = _column("build_time", units.type)
     advancing = worked & units.alive & (units.progress < build_time)
     gain = (1.0 - START_HEALTH) * _column("max_health", units.type) / jnp.maximum(build_time, 1)
@@ -445,37 +456,59 @@ def _train(units: Units, next_tag):
     active = started | (waiting & (claimed <= free))
     work = jnp.where(active, units.queue_work + 1.0, units.queue_work)
     done = active & (work >= _column("build_time", head))
-    # Each finished unit takes the next free slot; without one it waits.
-    rank = jnp.cumsum(done) - 1
-    slots = free_slots(units, n)
-    slot = jnp.where(done, slots[jnp.clip(rank, 0, n - 1)], n)
-    spawns = done & (slot < n)
+    # Units finish rarely: the spawning is computed only in loops where one does.
+    return lazy_where(done.any(), lambda args: _spawn(*args), (units, next_tag, done, work),
+                      (units.replace(queue_work=work), next_tag, jnp.zeros(n, bool)))
+
+
+def _spawn(units: Units, next_tag, done, work):
+    """`_train`'s finished units (bool[N] `done`, by producer) appear beside their
+    producers; `work` (float32[N]) is the producers' queue work this loop.
+
+    Returns:
+      (units, next_tag, trained bool[N] the new units' slots).
+    """
+    n = units.num_slots
+    head = units.queue[:, 0]
+    # Each finished unit takes the next free slot (the k-th finished producer the k-th
+    # dead slot); without one it waits. Matched over [producer, slot] pairs and written
+    # by selects, not scatters (`place_where`).
+    rank = jnp.cumsum(done, dtype=jnp.int32) - 1
+    dead = ~units.alive
+    dead_rank = jnp.cumsum(dead, dtype=jnp.int32) - 1
+    spawns = done & (rank < jnp.sum(dead, dtype=jnp.int32))
+    pairs = spawns[:, None] & dead[None, :] & (rank[:, None] == dead_rank[None, :])
+    filled = pairs.any(axis=0)
+    producer = jnp.argmax(pairs, axis=0)  # [N]: the producer of each filled slot
     radius = _column("radius", units.type) + _column("radius", head)
     to_rally = units.rally - units.pos
     length = jnp.sqrt(squared_length(to_rally))
     towards = jnp.where((units.rallied & (length > 1e-4))[:, None],
                         to_rally / jnp.maximum(length, 1e-4)[:, None], jnp.array([0.0, -1.0]))
     spawn_pos = units.pos + towards * radius[:, None]
-    slot = jnp.where(spawns, slot, n)
-    new, _ = place(units, slot, head, Owner.SELF, spawn_pos, next_tag)
     # Tags in production order.
-    tags = next_tag + rank
-    new = new.replace(tag=new.tag.at[slot].set(tags, mode="drop"))
+    new = place_where(units, filled, head[producer], Owner.SELF, spawn_pos[producer],
+                      next_tag + rank[producer])
     # Rallies: a new SCV rallied to a resource gathers it, others move to the point.
     rally_unit = jnp.clip(units.rally_unit, 0, n - 1)
     to_resource = ((units.rally_unit >= 0) & units.alive[rally_unit]
                    & (units.contents[rally_unit] > 0) & (head == UnitType.SCV))
     order = jnp.where(units.rallied, jnp.where(to_resource, Order.GATHER, Order.MOVE),
                       Order.NONE)
+    head_of_queue = filled[:, None] & (jnp.arange(new.orders.shape[1]) == 0)  # [N, Q]
+
+    def first_order(old, value):  # old [N, Q, ...] with value [N, ...] first where filled
+        where = head_of_queue.reshape(head_of_queue.shape + (1,) * (old.ndim - 2))
+        return jnp.where(where, value[:, None], old)
+
     new = new.replace(
-        orders=new.orders.at[slot, 0].set(order, mode="drop"),
-        order_pos=new.order_pos.at[slot, 0].set(units.rally, mode="drop"),
-        order_unit=new.order_unit.at[slot, 0].set(
-            jnp.where(to_resource, units.rally_unit, NO_TARGET), mode="drop"),
-        patrol_origin=new.patrol_origin.at[slot].set(spawn_pos, mode="drop"))
+        orders=first_order(new.orders, order[producer]),
+        order_pos=first_order(new.order_pos, units.rally[producer]),
+        order_unit=first_order(new.order_unit,
+                               jnp.where(to_resource, units.rally_unit, NO_TARGET)[producer]),
+        patrol_origin=jnp.where(filled[:, None], spawn_pos[producer], new.patrol_origin))
     queue = jnp.where(spawns[:, None], jnp.concatenate(
         [units.queue[:, 1:], jnp.zeros((n, 1), jnp.int32)], axis=1), units.queue)
     new = new.replace(queue=queue, queue_work=jnp.where(spawns, 0.0, jnp.where(
         done, work - 1.0, work)))
-    return (new, next_tag + jnp.sum(spawns, dtype=jnp.int32),
-            jnp.zeros(n, bool).at[slot].set(True, mode="drop"))
+    return new, next_tag + jnp.sum(spawns, dtype=jnp.int32), filled

@@ -41,6 +41,30 @@ def slots_in_use(alive):
     return jnp.max(jnp.where(alive, jnp.arange(1, alive.shape[-1] + 1), 0)).astype(jnp.int32)
 
 
+def first_slots(mask, count: int):
+    """int32[count]: the first `count` slots where bool[N] `mask` holds, ascending; N
+    where there are fewer.
+
+    `jnp.nonzero(mask, size=count)` without its scatter: each slot's rank among the
+    true ones is compared with 0..count-1 ([count, N]), so that a game loop using it
+    can be compiled whole (`devices.compile_small_loops_whole`).
+    """
+    mask = jnp.asarray(mask, bool)
+    n = mask.shape[-1]
+    rank = jnp.cumsum(mask, dtype=jnp.int32) - 1
+    hit = mask & (rank == jnp.arange(count, dtype=jnp.int32)[:, None])
+    return jnp.where(hit.any(axis=-1), jnp.argmax(hit, axis=-1), n).astype(jnp.int32)
+
+
+def targeted_by(target, num_slots: int):
+    """bool[N, M]: [i, j] where int32[N] `target` of unit i is slot j < M (`num_slots`).
+
+    Sums, minima and maxima by target over its rows replace scatters, so that a game
+    loop using them can be compiled whole (`devices.compile_small_loops_whole`).
+    """
+    return jnp.asarray(target)[:, None] == jnp.arange(num_slots, dtype=jnp.int32)
+
+
 class Order(enum.IntEnum):
     """What a unit is doing. `NONE` is idle."""
 

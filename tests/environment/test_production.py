@@ -8,17 +8,19 @@ Refinery 75, 480 loops.
 """
 
 import functools
+import re
 
 import jax
 import jax.numpy as jnp
 import numpy as np
 import pytest
 
-from sc2jax.environment import FUNCTIONS, Simulator, score, to_dense
+from sc2jax.environment import FUNCTIONS, Simulator, production, score, to_dense
+from sc2jax.environment.dynamics import game_loop
 from sc2jax.environment.minigames.economy import COMMAND_CENTER, GEYSERS, LEFT_FIELDS
 from sc2jax.environment.observation_tables import Player, ScoreCumulative
 from sc2jax.environment.protocol_enums import ActionResult
-from sc2jax.environment.state import Order, Owner, place
+from sc2jax.environment.state import Order, Owner, first_slots, place
 from sc2jax.environment.units import UnitType
 
 from .conftest import PARAMS, SMALL, assert_trees_equal, compiled, small_sim
@@ -358,3 +360,26 @@ def test_bad_use_slot_sizes_names_what_is_allowed():
     for bad in (0, "yes", None):
         with pytest.raises(ValueError, match=r"use_slot_sizes must be a bool, got"):
             Simulator(BM, fmt=SMALL, use_slot_sizes=bad)
+
+
+def test_first_slots_is_nonzero_and_the_economy_loop_has_no_scatter():
+    rng = np.random.default_rng(0)
+    for count in (1, 4, 12):
+        for mask in (rng.random(12) < 0.3, np.zeros(12, bool), np.ones(12, bool)):
+            np.testing.assert_array_equal(
+                first_slots(mask, count), jnp.nonzero(mask, size=count, fill_value=12)[0])
+    # Harvest and production by pairs and selects: XLA's CPU backend can compile the
+    # game loop whole (`devices.compile_small_loops_whole`).
+    sim = small_sim("CollectMineralsAndGas")
+    game = sim.game
+    state, _ = compiled(sim)[0](jax.random.PRNGKey(0), PARAMS)
+
+    def loop(units, key):
+        units, _ = game_loop(units, key, game.geometry.playable, workers=True, combat=False,
+                             colliders=game.collider_slots, field_slots=game.field_slots,
+                             sized=True)
+        return production.production_loop(units, jnp.int32(50), jnp.int32(1),
+                                          jnp.asarray(game.geometry.buildable))
+
+    hlo = jax.jit(loop).lower(state.units, state.key).compile().as_text()
+    assert not re.search(r"= \S+ scatter", hlo)
