@@ -67,18 +67,20 @@ parameters, over full windows only)."""
 @dataclasses.dataclass(frozen=True)
 class Agent:
     """Everything built from a config: simulator (None on the real game), network,
-    actor and learner."""
+    actor and learner. Agents whose configs differ only in `RUN_ONLY_FIELDS` share
+    these parts and the programs compiled from them (`programs`)."""
 
     config: TrainConfig
     sim: Simulator | None
     network: Any
     core: ActorCore
     learner: Learner
+    programs: dict = dataclasses.field(default_factory=dict, repr=False, compare=False)
 
     def initial_state(self, key: jax.Array, learning_rate: Any = None) -> TrainState:
         """A fresh run: new parameters, optimiser state and environments."""
         learner_key, actor_key = jax.random.split(key)
-        actor = self._reset_actors(actor_key)
+        actor = self._reset_actors()(actor_key)
         rate = self.config.learning_rate if learning_rate is None else learning_rate
         learner = self.learner.init(learner_key, actor.timestep.observation, rate)
         return TrainState(learner, actor)
@@ -99,31 +101,44 @@ class Agent:
             return self.initial_learner(key)
         return self.initial_state(key)
 
-    @functools.cached_property
     def _reset_actors(self):
         """key -> the actors' first state, compiled (run op by op, the resets take several
         times longer than compiling them). The network is initialised op by op: compiled,
         its initial weights would differ in the last bits."""
-        unroll = make_unroll(self.sim, self.core, self.config.unroll_length)
-        return jax.jit(lambda key: unroll.init(key, self.config.num_envs))
+        if "reset" not in self.programs:
+            unroll = make_unroll(self.sim, self.core, self.config.unroll_length)
+            num_envs = self.config.num_envs
+            self.programs["reset"] = jax.jit(lambda key: unroll.init(key, num_envs))
+        return self.programs["reset"]
 
     def chunk(self, num_runs: int | None = None):
         """The compiled chunk (`make_train_chunk`), built once per agent and run count."""
-        if num_runs not in self._chunks:
+        if ("chunk", num_runs) not in self.programs:
             unroll = make_unroll(self.sim, self.core, self.config.unroll_length)
-            self._chunks[num_runs] = make_train_chunk(
+            self.programs["chunk", num_runs] = make_train_chunk(
                 unroll, self.learner, self.config.updates_per_chunk, num_runs=num_runs)
-        return self._chunks[num_runs]
+        return self.programs["chunk", num_runs]
 
-    @functools.cached_property
-    def _chunks(self) -> dict:
-        return {}
+
+RUN_ONLY_FIELDS = ("seed", "learning_rate", "checkpoint_interval_s", "eval_episodes",
+                   "best_eval_interval", "best_eval_episodes")
+"""The config fields that no built part or compiled program depends on (the learning
+rate is part of the learner's state; the others are read by the run's loop)."""
 
 
 @functools.cache
 def build(config: TrainConfig) -> Agent:
-    """Builds the simulator, network, actor and learner of a config (once per config, so
-    runs of the same config in one process share compiled code)."""
+    """Builds the simulator, network, actor and learner of a config: once per config,
+    and shared by configs that differ only in `RUN_ONLY_FIELDS`, so that runs in one
+    process (a run and its resumption, a sweep, its evaluations) share compiled code."""
+    defaults = TrainConfig()
+    parts = _build(dataclasses.replace(
+        config, **{name: getattr(defaults, name) for name in RUN_ONLY_FIELDS}))
+    return dataclasses.replace(parts, config=config)
+
+
+@functools.cache
+def _build(config: TrainConfig) -> Agent:
     sim = simulator(config.map_name, config.observation_format(), config.step_mul, 0, 1.0,
                     float(config.discount), False) if config.backend == "simulator" else None
     network = make_network(config.agent, config.observation_format())

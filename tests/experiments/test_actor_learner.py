@@ -18,6 +18,7 @@ from sc2jax.environment.game_env import GameEnv, GameEnvBatch
 from sc2jax.environment.server import Sc2ApiServer
 from sc2jax.experiments import trainer
 from sc2jax.experiments.actor import make_unroll
+from sc2jax.experiments.checkpoints import placed_as_restored
 from sc2jax.experiments.compiled_loop import make_train_chunk
 from sc2jax.experiments.config import TrainConfig
 from sc2jax.experiments.host_actor import HostActor, run_split_loop
@@ -34,11 +35,21 @@ def agent():
     return trainer.build(TINY)
 
 
+def _initial_state(agent, seed: int, rates=None):
+    """A fresh state placed as `trainer.train` places it (`placed_as_restored`), so that
+    the programs these tests compile are those of test_training's runs of TINY (one
+    persistent-cache entry each; an uncommitted state compiles another program)."""
+    if rates is None:
+        return placed_as_restored(agent.initial_state(jax.random.PRNGKey(seed)))
+    keys = jax.random.split(jax.random.PRNGKey(seed), len(rates))
+    return placed_as_restored(jax.vmap(agent.initial_state)(keys, rates))
+
+
 def test_unroll_emits_a_consistent_trajectory(agent):
-    unroll = make_unroll(agent.sim, agent.core, 6)
-    state = agent.initial_state(jax.random.PRNGKey(0))
+    k, b = TINY.unroll_length, TINY.num_envs
+    unroll = make_unroll(agent.sim, agent.core, k)
+    state = _initial_state(agent, 0)
     actor, traj, episodes = jax.jit(unroll.unroll)(state.learner.params, state.actor)
-    k, b = 6, TINY.num_envs
     assert traj.observation["feature_screen"].shape == (k + 1, b, 2, 16, 16)
     assert traj.action.function.shape == traj.reward.shape == (k, b)
     assert traj.first.shape == (k + 1, b) and bool(traj.first[0].all())
@@ -59,7 +70,7 @@ def test_unroll_emits_a_consistent_trajectory(agent):
 
 def test_scan_and_loop_chunks_agree_and_learn(agent):
     unroll = make_unroll(agent.sim, agent.core, TINY.unroll_length)
-    state = agent.initial_state(jax.random.PRNGKey(1))
+    state = _initial_state(agent, 1)
     before = jax.tree.map(np.asarray, state.learner.params)
     outs = []
     for scan in (True, False):
@@ -81,7 +92,7 @@ def test_scan_and_loop_chunks_agree_and_learn(agent):
 
 def test_non_point_rate_scale_scales_all_but_the_point_heads(agent):
     unroll = make_unroll(agent.sim, agent.core, TINY.unroll_length)
-    state = agent.initial_state(jax.random.PRNGKey(2))
+    state = _initial_state(agent, 2)
     _, traj, _ = jax.jit(unroll.unroll)(state.learner.params, state.actor)
     scaled = trainer.build(dataclasses.replace(TINY, non_point_rate_scale=0.25)).learner
     deltas = []
@@ -110,7 +121,7 @@ def test_non_point_rate_scale_scales_all_but_the_point_heads(agent):
 def test_sweep_chunk_trains_each_run_as_if_alone(agent):
     unroll = make_unroll(agent.sim, agent.core, TINY.unroll_length)
     rates = jnp.array([1e-4, 1e-3], jnp.float32)
-    states = jax.vmap(agent.initial_state)(jax.random.split(jax.random.PRNGKey(2), 2), rates)
+    states = _initial_state(agent, 2, rates)
     outs = {}
     for scan in (False, True):  # one run after another (CPU's default), and vmapped
         chunk = make_train_chunk(unroll, agent.learner, 2, num_runs=2, scan=scan)
@@ -139,21 +150,22 @@ def test_split_loop_trains_from_a_dm_env_environment():
                minimap_features=config.minimap_features, num_envs=2, seed=0)
     assert env.simulator.fmt == agent.sim.fmt
     actor = HostActor(env, agent.core, config.unroll_length)
-    state = agent.initial_state(jax.random.PRNGKey(3))
-    trajectory = actor.unroll(state.learner.params)
+    # Placed as `train` places it, so that the update is the program of the next test's.
+    state = placed_as_restored(agent.initial_learner(jax.random.PRNGKey(3)))
+    trajectory = actor.unroll(state.params)
     k = config.unroll_length
     assert trajectory.observation["feature_screen"].shape == (k + 1, 2, 2, 16, 16)
     assert trajectory.behaviour_log_prob.shape == trajectory.reward.shape == (k, 2)
-    out = network_unroll(agent.network, state.learner.params,
+    out = network_unroll(agent.network, state.params,
                          jax.tree.map(lambda x: x[:k], trajectory.observation))
     log_pi = policy.log_prob(out, trajectory.action,
                              trajectory.observation["available_actions"][:k]).total
     np.testing.assert_allclose(trajectory.behaviour_log_prob, log_pi, rtol=1e-4, atol=1e-4)
-    learner, metrics = run_split_loop(actor, agent.learner, state.learner, 3)
+    learner, metrics = run_split_loop(actor, agent.learner, state, 3)
     assert int(learner.update) == 3 and len(metrics) == 3
     assert all(np.isfinite(m["loss"]) for m in metrics)
     with pytest.raises(ValueError, match="num_updates"):
-        run_split_loop(actor, agent.learner, state.learner, 0)
+        run_split_loop(actor, agent.learner, state, 0)
 
 
 def test_training_on_games_over_the_sc2_api_resumes_and_evaluates(tmp_path):

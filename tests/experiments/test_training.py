@@ -66,6 +66,19 @@ def test_config_json_roundtrip_and_layers():
         TrainConfig.from_json({"bogus": 1})
 
 
+def test_configs_that_differ_only_in_run_settings_share_their_programs():
+    base = trainer.build(PERIODIC)
+    other = trainer.build(TrainConfig(**{
+        **PERIODIC.to_json(), "seed": 5, "learning_rate": 1e-2, "eval_episodes": 3,
+        "best_eval_interval": 0, "best_eval_episodes": 4, "checkpoint_interval_s": 1.0}))
+    assert other.config.seed == 5 and other.config.best_eval_episodes == 4
+    assert other.sim is base.sim and other.core is base.core and other.learner is base.learner
+    assert other.chunk() is base.chunk() and other.chunk(2) is base.chunk(2)
+    # The number of updates is part of the update (its rate's annealing).
+    longer = trainer.build(TrainConfig(**{**PERIODIC.to_json(), "total_steps": 512}))
+    assert longer.learner is not base.learner and longer.chunk() is not base.chunk()
+
+
 def test_learning_rate_anneals_linearly_to_half():
     # 1e-3 * (1 - 0.5 * 5/10) = 7.5e-4; after the anneal it stays at half.
     assert float(annealed_learning_rate(jnp.float32(1e-3), jnp.int32(5), 10)) == (
