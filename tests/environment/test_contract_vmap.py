@@ -32,12 +32,14 @@ def test_vmap_matches_single(map_name):
         sim = dataclasses.replace(sim, use_slot_sizes=False)
     reset, step = compiled(sim)
     vreset, vstep = compiled(sim, batched=True)
-    keys = jax.random.split(jax.random.PRNGKey(5), 3)
+    # Four environments, as tests/environment/test_devices.py batches MoveToBeacon (one
+    # program for both files).
+    keys = jax.random.split(jax.random.PRNGKey(5), 4)
     states, tss = vreset(keys, PARAMS)
     actions = to_dense([FUNCTIONS.select_army("select"), FUNCTIONS.no_op(),
-                        FUNCTIONS.move_camera((3, 4))])
+                        FUNCTIONS.move_camera((3, 4)), FUNCTIONS.select_army("add")])
     _, tss2 = vstep(states, actions, PARAMS)
-    for i in range(3):
+    for i in range(4):
         state, ts = reset(keys[i], PARAMS)
         assert np.array_equal(ts.observation["feature_screen"],
                               tss.observation["feature_screen"][i])

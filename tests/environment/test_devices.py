@@ -27,7 +27,9 @@ def _play(devices, steps: int = 3):
     act = jax.jit(jax.vmap(random_action, in_axes=(0, 0, None)), static_argnums=2)
     for i in range(steps):
         keys = jax.random.split(jax.random.PRNGKey(i), NUM_ENVS)
-        action = act(keys, ts.observation["available_actions"], sim.fmt.types)
+        # On the host, as the wrapper's actions come (an action left split over the
+        # devices would be another program's argument).
+        action = jax.device_get(act(keys, ts.observation["available_actions"], sim.fmt.types))
         state, ts = step(state, action, PARAMS)
     return state, ts
 
