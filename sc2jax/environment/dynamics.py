@@ -22,7 +22,15 @@ import jax.numpy as jnp
 
 from sc2jax.environment import harvest
 from sc2jax.environment.geometry import distances, squared_length
-from sc2jax.environment.state import NO_TARGET, Order, Owner, Units, leading_slots, slot_rows
+from sc2jax.environment.state import (
+    NO_TARGET,
+    Order,
+    Owner,
+    Units,
+    leading_slots,
+    slot_rows,
+    targeted_by,
+)
 from sc2jax.environment.units import UNIT_DATA, Attribute
 
 # A move order ends within this distance of its goal, or when the unit is blocked
@@ -140,7 +148,7 @@ def _cols(blocks: list[PairBlock], parts: list):
 def _hit_by(block: PairBlock, target):
     """bool[R, C]: whether each row's `target` (int32[N], in its block's columns where it
     matters) is each column."""
-    return block.column(target[block.rows])[:, None] == jnp.arange(block.gap.shape[1])
+    return targeted_by(block.column(target[block.rows]), block.gap.shape[1])
 
 
 def _cooldown_jitter(key, size: int):
