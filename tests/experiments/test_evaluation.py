@@ -119,7 +119,7 @@ def test_evaluate_writes_json(tmp_path):
     out = subprocess.run(
         [sys.executable, "-m", "sc2jax.experiments.evaluate", "--map=MoveToBeacon",
          "--agent=random", "--episodes=2", "--num_envs=2", "--screen_size=16",
-         "--minimap_size=16", f"--output={path}"],
+         "--minimap_size=16", "--step_mul=64", f"--output={path}"],
         capture_output=True, text=True, timeout=300)
     assert out.returncode == 0, out.stderr
     result = json.loads(path.read_text())
@@ -135,12 +135,14 @@ def test_evaluate_writes_json(tmp_path):
     out = subprocess.run(
         [sys.executable, "-m", "sc2jax.experiments.evaluate", "--map=MoveToBeacon",
          "--agent=random", "--episodes=1", "--num_envs=1", "--screen_size=16",
-         "--minimap_size=16", "--backend=sc2", f"--sc2path={root}", f"--output={on_game}"],
+         "--minimap_size=16", "--step_mul=64", "--backend=sc2", f"--sc2path={root}",
+         f"--output={on_game}"],
         capture_output=True, text=True, timeout=300)
     assert out.returncode == 0, out.stderr
     game = json.loads(on_game.read_text())
     assert game["episodes"] == 1 and game["config"]["backend"] == "sc2"
-    assert game["steps"] == result["steps"][:1]  # Both ran MoveToBeacon's whole timer.
+    # Both ran MoveToBeacon's whole timer: 1920 game loops, 30 agent steps of 64.
+    assert game["steps"] == result["steps"][:1] == [30]
 
 
 def _economy_obs(units, player, selected=0, last=-1, res=64):

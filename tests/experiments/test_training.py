@@ -126,11 +126,11 @@ def test_trained_run_can_be_evaluated(tmp_path):
     stats = evaluation.run_core_episodes(agent.sim, agent.core, params, 2, num_envs=2)
     assert stats.scores.shape == (2,) and (stats.steps > 0).all()
     # The command line's JSON names what it evaluated: the run's map and format, not
-    # the flags' defaults (a random agent at 64x64).
+    # the flags' defaults (a random agent at 64x64). (It runs the program just compiled.)
     path = tmp_path / "eval.json"
     out = subprocess.run(
         [sys.executable, "-m", "sc2jax.experiments.evaluate", f"--run_dir={run}",
-         "--episodes=1", "--num_envs=1", f"--output={path}"],
+         "--episodes=2", "--num_envs=2", f"--output={path}"],
         capture_output=True, text=True, timeout=300)
     assert out.returncode == 0, out.stderr
     config = json.loads(path.read_text())["config"]
