@@ -18,6 +18,7 @@ per run (FullyConv at 16², 4 environments x K = 16, 2 runs: 0.34-0.39 s against
 
 from __future__ import annotations
 
+import functools
 from collections.abc import Callable
 
 import jax
@@ -94,7 +95,7 @@ def make_train_chunk(unroll: Unroll, learner: Learner, updates_per_chunk: int, *
 
         return jax.jit(scanned, donate_argnums=0)
 
-    compiled = jax.jit(step, donate_argnums=0)
+    compiled = _jitted_step(unroll, learner)
     if num_runs is not None:
         compiled = _run_by_run(compiled, num_runs)
 
@@ -106,6 +107,13 @@ def make_train_chunk(unroll: Unroll, learner: Learner, updates_per_chunk: int, *
         return state, *jax.tree.map(lambda *xs: jnp.stack(xs, axis), *outs)
 
     return looped
+
+
+@functools.cache
+def _jitted_step(unroll: Unroll, learner: Learner):
+    """One run's step, jitted once per actor and learner, so that the chunks built from
+    them (a run's, and a sweep's run by run) trace it once."""
+    return jax.jit(make_train_step(unroll, learner), donate_argnums=0)
 
 
 def _run_by_run(step, num_runs: int):

@@ -106,18 +106,24 @@ class Agent:
         times longer than compiling them). The network is initialised op by op: compiled,
         its initial weights would differ in the last bits."""
         if "reset" not in self.programs:
-            unroll = make_unroll(self.sim, self.core, self.config.unroll_length)
-            num_envs = self.config.num_envs
+            unroll, num_envs = self._unroll(), self.config.num_envs
             self.programs["reset"] = jax.jit(lambda key: unroll.init(key, num_envs))
         return self.programs["reset"]
 
     def chunk(self, num_runs: int | None = None):
-        """The compiled chunk (`make_train_chunk`), built once per agent and run count."""
+        """The compiled chunk (`make_train_chunk`), built once per agent and run count
+        (one run's chunk and a sweep's run-by-run chunk share their compiled step)."""
         if ("chunk", num_runs) not in self.programs:
-            unroll = make_unroll(self.sim, self.core, self.config.unroll_length)
             self.programs["chunk", num_runs] = make_train_chunk(
-                unroll, self.learner, self.config.updates_per_chunk, num_runs=num_runs)
+                self._unroll(), self.learner, self.config.updates_per_chunk,
+                num_runs=num_runs)
         return self.programs["chunk", num_runs]
+
+    def _unroll(self):
+        if "unroll" not in self.programs:
+            self.programs["unroll"] = make_unroll(self.sim, self.core,
+                                                  self.config.unroll_length)
+        return self.programs["unroll"]
 
 
 RUN_ONLY_FIELDS = ("seed", "learning_rate", "checkpoint_interval_s", "eval_episodes",
