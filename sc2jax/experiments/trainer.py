@@ -105,25 +105,28 @@ class Agent:
         """key -> the actors' first state, compiled (run op by op, the resets take several
         times longer than compiling them). The network is initialised op by op: compiled,
         its initial weights would differ in the last bits."""
-        if "reset" not in self.programs:
+        def make():
             unroll, num_envs = self._unroll(), self.config.num_envs
-            self.programs["reset"] = jax.jit(lambda key: unroll.init(key, num_envs))
-        return self.programs["reset"]
+            return jax.jit(lambda key: unroll.init(key, num_envs))
+
+        return self._program("reset", make)
 
     def chunk(self, num_runs: int | None = None):
         """The compiled chunk (`make_train_chunk`), built once per agent and run count
         (one run's chunk and a sweep's run-by-run chunk share their compiled step)."""
-        if ("chunk", num_runs) not in self.programs:
-            self.programs["chunk", num_runs] = make_train_chunk(
-                self._unroll(), self.learner, self.config.updates_per_chunk,
-                num_runs=num_runs)
-        return self.programs["chunk", num_runs]
+        return self._program(("chunk", num_runs), lambda: make_train_chunk(
+            self._unroll(), self.learner, self.config.updates_per_chunk,
+            num_runs=num_runs))
 
     def _unroll(self):
-        if "unroll" not in self.programs:
-            self.programs["unroll"] = make_unroll(self.sim, self.core,
-                                                  self.config.unroll_length)
-        return self.programs["unroll"]
+        return self._program("unroll", lambda: make_unroll(self.sim, self.core,
+                                                           self.config.unroll_length))
+
+    def _program(self, key, make: Callable[[], Any]):
+        """`programs[key]`, made by `make()` the first time it is asked for."""
+        if key not in self.programs:
+            self.programs[key] = make()
+        return self.programs[key]
 
 
 RUN_ONLY_FIELDS = ("seed", "learning_rate", "checkpoint_interval_s", "eval_episodes",
