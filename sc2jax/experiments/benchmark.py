@@ -10,7 +10,9 @@ host device per core); compilation is excluded (two warm-up calls), each call is
 `block_until_ready`, and the median of the repeats is reported. The programs of one
 environment count (every map and device count, and SMAX) are timed round-robin, one call
 each per round, so a machine whose speed drifts during the run moves them alike and their
-ratios hold.
+ratios hold. Where the rollouts of one count would not fit in memory together (their
+carries hold every environment's observation: about 0.65 GB per map at 1,024 environments
+of 64² layers), they are timed in groups that do, each group with its own SMAX-3m.
 
 Optionally (`--smax`), JaxMARL's SMAX (an optional, benchmark-only dependency:
 `pip install jaxmarl`) is measured the same way on its "3m" scenario, with random
@@ -67,6 +69,13 @@ flags.DEFINE_string("output", None, "Markdown file to write the results section 
 
 SECTION = "## Simulator throughput"
 SMAX_SCENARIO = "3m"
+FOOTPRINT = 3
+"""A rollout's memory as a multiple of its carry's bytes: the carry, and the next carry and
+temporaries while it runs (on the CPU at 1,024 environments of 64² layers, one rollout's
+process peaked at 2.2x its carry for MoveToBeacon and 4.1x for BuildMarines, a few hundred
+MB of which is the process itself)."""
+MEMORY_FRACTION = 0.8
+"""The part of the free memory that the rollouts timed together may take."""
 
 
 class Result(NamedTuple):
@@ -79,6 +88,7 @@ class Result(NamedTuple):
       steps: agent steps per environment per timed call.
       seconds: the median wall time of one call.
       step_mul: game loops per agent step.
+      reference: the SMAX-3m result timed in the same rounds (None if none was).
     """
 
     name: str
@@ -87,6 +97,7 @@ class Result(NamedTuple):
     steps: int
     seconds: float
     step_mul: int
+    reference: Result | None = None
 
     @property
     def agent_steps_per_second(self) -> float:
@@ -235,9 +246,60 @@ def smax_program(num_envs: int, step_mul: int, steps: int,
                    *smax_rollout(num_envs, steps, step_mul, devices))
 
 
-def markdown(results: Sequence[Result], smax: dict[tuple[int, int], Result], command: str,
-             before: str, after: str, note: str) -> str:
-    """The results section, as markdown."""
+def carry_bytes(sim: Simulator) -> int:
+    """Bytes of one environment's share of a rollout's carry (its state and last timestep;
+    a rollout of B environments carries B times this). From shapes: nothing is computed."""
+    shapes = jax.eval_shape(sim.reset, jax.ShapeDtypeStruct((2,), jnp.uint32))
+    return sum(x.size * x.dtype.itemsize for x in jax.tree_util.tree_leaves(shapes))
+
+
+def free_memory(device: jax.Device) -> int | None:
+    """Bytes free for new buffers: an accelerator's allocator limit less what it holds, or
+    on a CPU the host's available memory; None where unknown."""
+    stats = device.memory_stats() if device.platform != "cpu" else None
+    if stats and "bytes_limit" in stats:
+        return stats["bytes_limit"] - stats.get("bytes_in_use", 0)
+    try:
+        with open("/proc/meminfo") as f:
+            for line in f:
+                if line.startswith("MemAvailable:"):
+                    return int(line.split()[1]) * 1024
+    except OSError:
+        pass
+    return None
+
+
+def footprint(carry: int, devices: Sequence[jax.Device]) -> int:
+    """Bytes a rollout with a carry of `carry` bytes takes on the first of its devices (an
+    estimate, `FOOTPRINT`); host devices share one memory, so a CPU rollout takes it all."""
+    share = 1 if devices[0].platform == "cpu" else len(devices)
+    return FOOTPRINT * carry // share
+
+
+def memory_groups(sizes: Sequence[int], budget: int | None) -> list[list[int]]:
+    """Splits items, in order, into consecutive groups whose sizes sum to at most `budget`
+    (an item over the budget alone makes a group of its own).
+
+    Args:
+      sizes: each item's bytes.
+      budget: bytes a group may take (None: no limit, one group).
+
+    Returns:
+      Lists of item indices.
+    """
+    groups, used = [], 0
+    for i, size in enumerate(sizes):
+        if not groups or (budget is not None and used + size > budget):
+            groups.append([])
+            used = 0
+        groups[-1].append(i)
+        used += size
+    return groups
+
+
+def markdown(results: Sequence[Result], smax: Sequence[Result], command: str, before: str,
+             after: str, note: str) -> str:
+    """The results section, as markdown. Each ratio is against the result's `reference`."""
     lines = [SECTION, "", f"Command: `{command}`", "",
              f"- Date: {datetime.datetime.now().strftime('%Y-%m-%d %H:%M')}",
              f"- Machine before the run: {before}",
@@ -248,13 +310,12 @@ def markdown(results: Sequence[Result], smax: dict[tuple[int, int], Result], com
         header += " × SMAX-3m |"
         rule += "---:|"
     lines += [header, rule]
-    for r in list(results) + list(smax.values()):
+    for r, base in [(r, r.reference) for r in results] + [(r, r) for r in smax]:
         row = (f"| {r.name} | {r.num_envs} | {r.devices} | {r.steps} | "
                f"{r.agent_steps_per_second:,.0f} | {r.game_steps_per_second:,.0f} |")
         if smax:
-            base = smax.get((r.num_envs, r.devices))
-            ratio = r.agent_steps_per_second / base.agent_steps_per_second if base else None
-            row += f" {ratio:.2f} |" if ratio is not None else " – |"
+            row += (f" {r.agent_steps_per_second / base.agent_steps_per_second:.2f} |"
+                    if base else " – |")
         lines.append(row)
     if note:
         lines += ["", note]
@@ -288,25 +349,27 @@ def main(argv: Sequence[str]) -> None:
             with_smax, note = False, (f"SMAX skipped: jaxmarl is not installed ({e}); "
                                       "`pip install jaxmarl`.")
             logging.warning(note)
-    results, smax = [], {}
+    # Plan every count's groups before compiling anything (SMAX's carries are small
+    # beside the maps' and are not counted).
+    free = free_memory(jax.devices()[0])
+    budget = None if free is None else int(MEMORY_FRACTION * free)
+    per_env = {name: carry_bytes(Simulator(map_name=name, fmt=fmt, step_mul=FLAGS.step_mul))
+               for name in FLAGS.maps}
+    plans = []
     for n in counts:
-        steps = steps_per_call(n, FLAGS.steps)
-        programs = []
-        for devices in device_sets(n, device_counts):
-            programs += [sc2jax_program(name, n, fmt, FLAGS.step_mul, steps, devices)
-                         for name in FLAGS.maps]
-            if with_smax:
-                programs.append(smax_program(n, FLAGS.step_mul, steps, devices))
-        for r in time_round_robin(programs, FLAGS.repeats):
-            logging.info("%s x%d on %d devices: %.0f agent steps/s, %.0f game steps/s", r.name,
-                         n, r.devices, r.agent_steps_per_second, r.game_steps_per_second)
-            if r.name.startswith("SMAX"):
-                smax[n, r.devices] = r
-            else:
-                results.append(r)
-        del programs  # Frees this count's buffers before the next.
-    results.sort(key=lambda r: (FLAGS.maps.index(r.name), counts.index(r.num_envs),
-                                r.devices))
+        runs = [(name, devices) for devices in device_sets(n, device_counts)
+                for name in FLAGS.maps]
+        sizes = [footprint(per_env[name] * n, devices) for name, devices in runs]
+        for (name, devices), size in zip(runs, sizes):
+            if budget is not None and size > budget:
+                raise ValueError(
+                    f"--num_envs={n}: {name}'s rollout on {len(devices)} device(s) needs "
+                    f"about {size / 1e9:.1f} GB ({FOOTPRINT}x its carry of "
+                    f"{per_env[name] * n / 1e9:.2f} GB), more than the {budget / 1e9:.1f} "
+                    f"GB it may take ({MEMORY_FRACTION:.0%} of {free / 1e9:.1f} GB free); "
+                    "allowed: fewer environments, more devices or smaller layers")
+        groups = memory_groups(sizes, budget)
+        plans.append((n, [[runs[i] for i in group] for group in groups]))
     command = "python -m sc2jax.experiments.benchmark " + " ".join(
         f"--{k}={v}" for k, v in (
             ("maps", ",".join(FLAGS.maps)), ("num_envs", ",".join(FLAGS.num_envs)),
@@ -314,10 +377,41 @@ def main(argv: Sequence[str]) -> None:
             ("screen_size", FLAGS.screen_size), ("minimap_size", FLAGS.minimap_size),
             ("step_mul", FLAGS.step_mul), ("steps", FLAGS.steps), ("repeats", FLAGS.repeats),
             ("small_loop_bytes", FLAGS.small_loop_bytes), ("smax", FLAGS.smax)))
-    section = markdown(results, smax, command, before, machine(), note)
+    results, smax, notes = [], [], [note] if note else []
+    for done, (n, groups) in enumerate(plans, 1):
+        steps = steps_per_call(n, FLAGS.steps)
+        if len(groups) > 1:
+            notes.append(f"At {n} environments the rollouts did not fit in memory together "
+                         f"and were timed in {len(groups)} groups, each with its own "
+                         "SMAX-3m; each ratio is against its group's.")
+        for group in groups:
+            programs = [sc2jax_program(name, n, fmt, FLAGS.step_mul, steps, devices)
+                        for name, devices in group]
+            if with_smax:
+                for devices in {len(d): d for _, d in group}.values():
+                    programs.append(smax_program(n, FLAGS.step_mul, steps, devices))
+            timed = time_round_robin(programs, FLAGS.repeats)
+            del programs  # Frees this group's buffers before the next.
+            references = {r.devices: r for r in timed if r.name.startswith("SMAX")}
+            maps = ", ".join(sorted({name for name, _ in group}, key=FLAGS.maps.index))
+            for r in timed:
+                logging.info("%s x%d on %d devices: %.0f agent steps/s, %.0f game steps/s",
+                             r.name, n, r.devices, r.agent_steps_per_second,
+                             r.game_steps_per_second)
+                if r.name.startswith("SMAX"):
+                    smax.append(r._replace(name=f"{r.name} (beside {maps})")
+                                if len(groups) > 1 else r)
+                else:
+                    results.append(r._replace(reference=references.get(r.devices)))
+        results.sort(key=lambda r: (FLAGS.maps.index(r.name), counts.index(r.num_envs),
+                                    r.devices))
+        progress = "" if done == len(plans) else (
+            f"Partial: {done} of {len(plans)} environment counts measured so far.")
+        section = markdown(results, smax, command, before, machine(),
+                           "\n\n".join(notes + [progress] if progress else notes))
+        if FLAGS.output:  # After each count, so that a run cut short keeps what it measured.
+            write_section(FLAGS.output, section)
     print(section)
-    if FLAGS.output:
-        write_section(FLAGS.output, section)
 
 
 if __name__ == "__main__":
