@@ -381,10 +381,13 @@ def main(argv: Sequence[str]) -> None:
     for done, (n, groups) in enumerate(plans, 1):
         steps = steps_per_call(n, FLAGS.steps)
         if len(groups) > 1:
+            members = "; ".join(f"group {k}: " + ", ".join(
+                f"{name} on {len(devices)}" for name, devices in group)
+                for k, group in enumerate(groups, 1))
             notes.append(f"At {n} environments the rollouts did not fit in memory together "
                          f"and were timed in {len(groups)} groups, each with its own "
-                         "SMAX-3m; each ratio is against its group's.")
-        for group in groups:
+                         f"SMAX-3m; each ratio is against its group's ({members}).")
+        for k, group in enumerate(groups, 1):
             programs = [sc2jax_program(name, n, fmt, FLAGS.step_mul, steps, devices)
                         for name, devices in group]
             if with_smax:
@@ -393,13 +396,12 @@ def main(argv: Sequence[str]) -> None:
             timed = time_round_robin(programs, FLAGS.repeats)
             del programs  # Frees this group's buffers before the next.
             references = {r.devices: r for r in timed if r.name.startswith("SMAX")}
-            maps = ", ".join(sorted({name for name, _ in group}, key=FLAGS.maps.index))
             for r in timed:
                 logging.info("%s x%d on %d devices: %.0f agent steps/s, %.0f game steps/s",
                              r.name, n, r.devices, r.agent_steps_per_second,
                              r.game_steps_per_second)
                 if r.name.startswith("SMAX"):
-                    smax.append(r._replace(name=f"{r.name} (beside {maps})")
+                    smax.append(r._replace(name=f"{r.name} (group {k})")
                                 if len(groups) > 1 else r)
                 else:
                     results.append(r._replace(reference=references.get(r.devices)))
