@@ -48,6 +48,14 @@ from sc2jax.environment.minigames import check_map
 from sc2jax.experiments.checks import non_negative_ints, positive_ints
 from sc2jax.experiments.machine import machine
 from sc2jax.experiments.markdown import write_section
+from sc2jax.experiments.memory import (
+    FOOTPRINT,
+    MEMORY_FRACTION,
+    carry_bytes,
+    footprint,
+    free_memory,
+    memory_groups,
+)
 
 FLAGS = flags.FLAGS
 flags.DEFINE_list("maps", list(MAPS), "Mini-games to measure.")
@@ -69,15 +77,6 @@ flags.DEFINE_string("output", None, "Markdown file to write the results section 
 
 SECTION = "## Simulator throughput"
 SMAX_SCENARIO = "3m"
-FOOTPRINT = 3
-"""A rollout's memory as a multiple of its carry's bytes: the carry, and the next carry and
-temporaries while it runs (on the CPU at 1,024 environments of 64² layers, one rollout's
-process peaked at 2.2x its carry for MoveToBeacon and 4.1x for BuildMarines, a few hundred
-MB of which is the process itself)."""
-MEMORY_FRACTION = 0.8
-"""The part of the free memory that the rollouts timed together may take."""
-
-
 class Result(NamedTuple):
     """One measurement.
 
@@ -244,57 +243,6 @@ def smax_program(num_envs: int, step_mul: int, steps: int,
     """SMAX-3m's rollout at one environment count (ImportError without jaxmarl)."""
     return Program(f"SMAX-{SMAX_SCENARIO}", num_envs, len(devices), steps, step_mul,
                    *smax_rollout(num_envs, steps, step_mul, devices))
-
-
-def carry_bytes(sim: Simulator) -> int:
-    """Bytes of one environment's share of a rollout's carry (its state and last timestep;
-    a rollout of B environments carries B times this). From shapes: nothing is computed."""
-    shapes = jax.eval_shape(sim.reset, jax.ShapeDtypeStruct((2,), jnp.uint32))
-    return sum(x.size * x.dtype.itemsize for x in jax.tree_util.tree_leaves(shapes))
-
-
-def free_memory(device: jax.Device) -> int | None:
-    """Bytes free for new buffers: an accelerator's allocator limit less what it holds, or
-    on a CPU the host's available memory; None where unknown."""
-    stats = device.memory_stats() if device.platform != "cpu" else None
-    if stats and "bytes_limit" in stats:
-        return stats["bytes_limit"] - stats.get("bytes_in_use", 0)
-    try:
-        with open("/proc/meminfo") as f:
-            for line in f:
-                if line.startswith("MemAvailable:"):
-                    return int(line.split()[1]) * 1024
-    except OSError:
-        pass
-    return None
-
-
-def footprint(carry: int, devices: Sequence[jax.Device]) -> int:
-    """Bytes a rollout with a carry of `carry` bytes takes on the first of its devices (an
-    estimate, `FOOTPRINT`); host devices share one memory, so a CPU rollout takes it all."""
-    share = 1 if devices[0].platform == "cpu" else len(devices)
-    return FOOTPRINT * carry // share
-
-
-def memory_groups(sizes: Sequence[int], budget: int | None) -> list[list[int]]:
-    """Splits items, in order, into consecutive groups whose sizes sum to at most `budget`
-    (an item over the budget alone makes a group of its own).
-
-    Args:
-      sizes: each item's bytes.
-      budget: bytes a group may take (None: no limit, one group).
-
-    Returns:
-      Lists of item indices.
-    """
-    groups, used = [], 0
-    for i, size in enumerate(sizes):
-        if not groups or (budget is not None and used + size > budget):
-            groups.append([])
-            used = 0
-        groups[-1].append(i)
-        used += size
-    return groups
 
 
 def markdown(results: Sequence[Result], smax: Sequence[Result], command: str, before: str,

@@ -1,5 +1,6 @@
-"""The simulator benchmark's planning: rollouts grouped to fit in memory, and a count too
-large for the machine refused before anything compiles."""
+"""The simulator benchmark's planning (`sc2jax.experiments.memory`): rollouts grouped to
+fit in memory, and a count too large for the machine refused before anything compiles (the
+benchmark module defines absl flags, so it is run, not imported beside the other tests)."""
 
 import subprocess
 import sys
@@ -8,7 +9,7 @@ import jax
 import pytest
 
 from sc2jax.environment import ObservationFormat, Simulator
-from sc2jax.experiments.benchmark import carry_bytes, free_memory, memory_groups
+from sc2jax.experiments.memory import carry_bytes, free_memory, memory_groups
 
 
 def test_memory_groups_keep_order_and_fit_the_budget():
