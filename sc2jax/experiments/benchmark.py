@@ -77,6 +77,8 @@ flags.DEFINE_string("output", None, "Markdown file to write the results section 
 
 SECTION = "## Simulator throughput"
 SMAX_SCENARIO = "3m"
+
+
 class Result(NamedTuple):
     """One measurement.
 
