@@ -6,7 +6,8 @@ import pytest
 
 from sc2jax.environment import render
 from sc2jax.environment.fusion import materialize, set_static
-from sc2jax.environment.geometry import Minimap, cell_lookup
+from sc2jax.environment.geometry import Camera, Minimap, cell_lookup
+from sc2jax.environment.minigames.base import flat_geometry
 from sc2jax.environment.render import ratio_255
 from sc2jax.environment.state import Owner
 from sc2jax.environment.units import UNIT_DATA
@@ -143,3 +144,25 @@ def test_minimap_lookups_at_fixed_points_match_the_traced_lookup(size, shift):
     np.testing.assert_array_equal(fixed_grid, traced)
     np.testing.assert_array_equal(cell_lookup(grid, 64, xs, ys, -1), traced)
     assert (np.asarray(traced) == -1).any() == (shift > 0)
+
+
+@pytest.mark.parametrize("kind", ["terrain", "many_rows", "bool", "bool_70_wide"])
+def test_screen_lookups_at_traced_points_match_the_cells(kind):
+    # At traced points a fixed grid with few distinct rows (the terrain) is looked up by
+    # its rows' patterns, a bool grid (the explored cells) by packed bits, and any other
+    # grid by a gather: each the same cells as numpy's lookup, off the map included.
+    rng = np.random.default_rng(1)
+    grid = {
+        "terrain": np.where(flat_geometry((10.0, 12.0, 54.0, 44.0)).pathable, 7, 3),
+        "many_rows": rng.integers(0, 100, (64, 64)).astype(np.int32),
+        "bool": rng.random((64, 64)) < 0.5,
+        "bool_70_wide": rng.random((64, 70)) < 0.5,
+    }[kind]
+    fill = False if grid.dtype == bool else -1
+    fixed = not grid.dtype == bool
+    lookup = jax.jit(lambda g, x, y: cell_lookup(grid if fixed else g, 64, x, y, fill))
+    camera = Camera((64, 57))
+    for center in rng.uniform(-5.0, 75.0, (12, 2)).astype(np.float32):
+        xs, ys = (np.asarray(v) for v in camera.pixel_centers(center))
+        want = cell_lookup(grid, 64, xs, ys, fill)
+        np.testing.assert_array_equal(lookup(grid, xs, ys), want, err_msg=str(center))
