@@ -800,6 +800,34 @@ def test_collect_mineral_shards_pickup_and_respawn():
     assert ((shards >= (23.0, 21.0)) & (shards <= (43.0, 35.0))).all()
 
 
+def test_find_and_defeat_zerglings_placements_follow_the_script():
+    # The script's rules, in every one of 512 placements: zergling 1 at U(8, 9) from the
+    # centre, zergling 2 in the ring 7.5-9.5, the rest in (11, 13)-(53, 43) outside
+    # r = 10.5; respawns in region 1, >= 9 from every marine; always >= 5 apart. The
+    # ring is uniform by area: 16/34 of it lies inside r = 8.5.
+    from sc2jax.environment.minigames import find_and_defeat_zerglings as fdz
+
+    keys = jax.random.split(jax.random.PRNGKey(5), 512)
+    first = np.asarray(jax.jit(jax.vmap(fdz.initial_zerglings))(keys))
+    marines = jnp.asarray([[30.0, 28.0], [34.0, 28.0], [20.0, 40.0]])
+    alive = jnp.asarray([True, True, False])  # A dead marine keeps nothing away.
+    again = np.asarray(jax.jit(jax.vmap(
+        lambda k: fdz.respawned_zerglings(k, marines, alive)))(keys))
+    r = np.linalg.norm(first - np.asarray(fdz.CENTER), axis=-1)
+    assert ((r[:, 0] >= 8.0) & (r[:, 0] <= 9.0)).all()
+    assert ((r[:, 1] >= 7.5) & (r[:, 1] <= 9.5)).all()
+    assert abs((r[:, 1] < 8.5).mean() - 16 / 34) < 0.07
+    assert (r[:, 2:] >= 10.5).all()
+    assert ((first[:, 2:] >= (11.0, 13.0)) & (first[:, 2:] <= (53.0, 43.0))).all()
+    assert ((again >= (10.0, 12.0)) & (again <= (54.0, 44.0))).all()
+    to_marines = np.linalg.norm(again[:, :, None] - np.asarray(marines)[:2], axis=-1)
+    assert to_marines.min() >= 9.0
+    assert (np.linalg.norm(again - np.asarray(marines)[2], axis=-1) < 9.0).any()
+    for placed in (first, again):
+        d = np.linalg.norm(placed[:, :, None] - placed[:, None], axis=-1)
+        assert (d + 99 * np.eye(25) >= 5.0).all()
+
+
 def test_find_and_defeat_zerglings_kill_and_loss():
     # Kill: a 6-HP zergling 4 from an idle marine (gap 3.25 <= acquisition 5): the
     # marine's first shot on loop 1 kills it. +1, and it is removed.
