@@ -29,7 +29,9 @@ def random_action(key, available_actions, types: Arguments) -> DenseAction:
       An unbatched `DenseAction` (vmap for a batch).
     """
     available = jnp.asarray(available_actions, bool)
-    rank = jnp.cumsum(available, dtype=jnp.int32)  # Available functions up to each one.
+    # Available functions up to each one: a log-depth scan, where XLA's CPU backend runs
+    # `cumsum` as a window sum per entry (573 x 573 additions; 2.7x slower, measured).
+    rank = jax.lax.associative_scan(jnp.add, available.astype(jnp.int32))
     sizes = [size for t in types for size in t.sizes]
     bounds = jnp.concatenate([rank[-1:], jnp.array(sizes, jnp.int32)])
     values = jax.random.randint(key, (len(bounds),), 0, bounds)
