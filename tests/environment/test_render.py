@@ -159,7 +159,7 @@ def test_screen_lookups_at_traced_points_match_the_cells(kind):
         "bool_70_wide": rng.random((64, 70)) < 0.5,
     }[kind]
     fill = False if grid.dtype == bool else -1
-    fixed = not grid.dtype == bool
+    fixed = grid.dtype != bool
     lookup = jax.jit(lambda g, x, y: cell_lookup(grid if fixed else g, 64, x, y, fill))
     camera = Camera((64, 57))
     for center in rng.uniform(-5.0, 75.0, (12, 2)).astype(np.float32):

@@ -2,12 +2,12 @@
 
 From the map's script (reference/pysc2_facts.md §4): three preselected marines 1.0 from
 the centre of region 1 at 210°, 330° and 90°. Zergling 1 at a distance U(8, 9) from the
-centre in a random direction; zergling 2 in the ring 7.5-9.5 around it; zerglings 3-25
-in (11, 13)-(53, 43) outside radius 10.5; each at least 5 from the nearest zergling.
-+1 per zergling killed, -1 per marine lost. When all 25 are dead, 25 new ones appear in
-region 1, at least 9 from every marine and 5 from each other (at the end of the agent
-step; see `MiniGame.on_step`). The episode ends at the
-timer or when every marine is dead. Fog of war is on and the camera is free.
+centre in a random direction; zergling 2 in the ring 7.5-9.5 around the centre;
+zerglings 3-25 in (11, 13)-(53, 43) outside radius 10.5; each at least 5 from the
+nearest zergling. +1 per zergling killed, -1 per marine lost. When all 25 are dead, 25
+new ones appear in region 1, at least 9 from every marine and 5 from each other (at the
+end of the agent step; see `MiniGame.on_step`). The episode ends at the timer or when
+every marine is dead. Fog of war is on and the camera is free.
 """
 
 from __future__ import annotations
