@@ -99,7 +99,7 @@ def paint(pixel_pos, pixel_radius, keys, shown, size, box: int, with_density: bo
         keeps the highest key of the units covering it, and 0 where none does.
       shown: bool[N] units that may be drawn.
       size: (width, height) in pixels.
-      box: odd window size, >= 2 * ceil(max radius + 0.5) + 1.
+      box: odd window size, >= `box_size(max radius)`.
       with_density: also count the units covering each pixel.
 
     Returns:
@@ -207,8 +207,15 @@ def sight_grid(units: Units, xs, ys, own_slots: int | None = None):
 
 
 def box_size(max_radius_pixels: float) -> int:
-    """The window `paint` needs for units up to this radius."""
-    return 2 * int(np.ceil(max_radius_pixels + 0.5)) + 1
+    """The window `paint` needs for units up to this radius (in pixels).
+
+    A unit whose centre lies at a fraction f in [0, 1) of its pixel along an axis
+    reaches the pixel k to that side only if |k + 0.5 - f| <= r, so k lies in
+    [-floor(r + 0.5), ceil(r + 0.5) - 1]: a window of 2 * floor(r + 0.5) + 1 pixels
+    (3 for the screen's marines and zerglings at 64², 1 on the 64² minimap). The small
+    margin keeps a radius that rounds just below a half-integer in float32 inside.
+    """
+    return 2 * int(np.floor(max_radius_pixels + 0.5 + 1e-4)) + 1
 
 
 def slot_bits(num_slots: int) -> int:

@@ -56,17 +56,24 @@ def test_pack_fields_fit_their_words_without_overlap():
         render.pack_fields(render.FIELD_BITS, 12)
 
 
-def reference_screen(sim, state) -> dict:
-    """The per-unit screen layers by the documented rule, pixel by pixel (numpy): a unit
-    covers the pixels whose centres lie within its radius and the pixel holding its
-    centre; the top unit is the highest render layer, then the highest slot."""
+def reference_layers(sim, state, view: str = "screen") -> dict:
+    """The per-unit layers of the screen or the minimap by the documented rule, pixel by
+    pixel (numpy): a unit covers the pixels whose centres lie within its radius and the
+    pixel holding its centre; the top unit is the highest render layer, then the
+    highest slot."""
     units = jax.tree_util.tree_map(np.asarray, state.units)
-    camera = sim.renderer.camera
-    shown = np.asarray(sim.renderer.units_shown(state))
-    pos = np.asarray(camera.world_to_pixel(state.camera, state.units.pos), np.float32)
-    radius = (UNIT_DATA.radius[units.type] * np.float32(camera.pixels_per_unit)).astype(
+    renderer = sim.renderer
+    if view == "screen":
+        grid = renderer.camera
+        pos = grid.world_to_pixel(state.camera, state.units.pos)
+    else:
+        grid = renderer.minimap
+        pos = grid.world_to_pixel(state.units.pos)
+    shown = np.asarray(renderer.units_shown(state))
+    pos = np.asarray(pos, np.float32)
+    radius = (UNIT_DATA.radius[units.type] * np.float32(grid.pixels_per_unit)).astype(
         np.float32)
-    w, h = camera.size
+    w, h = grid.size
     ys, xs = np.mgrid[0:h, 0:w]
     dx = xs[..., None].astype(np.float32) + np.float32(0.5) - pos[:, 0]
     dy = ys[..., None].astype(np.float32) + np.float32(0.5) - pos[:, 1]
@@ -80,12 +87,16 @@ def reference_screen(sim, state) -> dict:
     def layer(per_unit):
         return np.where(covered, np.asarray(per_unit)[top], 0)
 
-    density = cover.sum(-1)
-    return {
-        "unit_type": layer(UNIT_DATA.sc2_id[units.type]),
+    layers = {
         "player_relative": layer([_RELATIVE.get(int(o), 0) for o in units.owner]),
         "player_id": layer(units.owner),
         "selected": layer(units.selected),
+    }
+    if view == "minimap":
+        return layers
+    density = cover.sum(-1)
+    return layers | {
+        "unit_type": layer(UNIT_DATA.sc2_id[units.type]),
         "unit_hit_points": layer(np.ceil(units.health)),
         "unit_hit_points_ratio": layer(ratio_255(units.health,
                                                  UNIT_DATA.max_health[units.type])),
@@ -120,13 +131,19 @@ def test_unit_layers_match_the_per_pixel_reference(map_name, paints_every_word,
                                     size) == (paints_every_word or map_name != "BuildMarines")
     monkeypatch.setattr(render, "paints_every_word", lambda *_: paints_every_word)
     screen = jax.jit(sim.renderer.screen)
+    minimap = jax.jit(sim.renderer.minimap_layers)
     names = [f.name for f in sim.fmt.screen_layers]
+    minimap_names = [f.name for f in sim.fmt.minimap_layers]
     covered = 0
     for state in states:
         got = np.asarray(screen(state))
-        for name, want in reference_screen(sim, state).items():
+        for name, want in reference_layers(sim, state).items():
             np.testing.assert_array_equal(got[names.index(name)], want, err_msg=name)
         covered += int((got[names.index("unit_density")] > 1).sum())
+        got = np.asarray(minimap(state))
+        for name, want in reference_layers(sim, state, "minimap").items():
+            np.testing.assert_array_equal(got[minimap_names.index(name)], want,
+                                          err_msg=f"minimap {name}")
     assert covered > 0  # Some pixels had overlapping units, so the draw order was tested.
 
 
