@@ -192,6 +192,15 @@ def first_valid(key, sample: Callable, valid: Callable, tries: int = 32):
 
 
 def nearest_distance(points, others, mask):
-    """float32[...]: distance from each point to the nearest of `others` where mask."""
-    d = jnp.sqrt(squared_length(points[..., None, :] - others))
-    return jnp.min(jnp.where(mask, d, jnp.inf), axis=-1)
+    """float32[...]: distance from each point (float32[..., 2]) to the nearest of the K
+    `others` (float32[K, 2], K static and small) where `mask` (bool[K]); inf where none.
+
+    A running minimum over the others, elementwise: XLA's CPU backend hands a minimum
+    over a small trailing axis to a library reduction (about 2 us per environment step
+    in FindAndDefeatZerglings' resets at 1,024 environments). The same values.
+    """
+    nearest = jnp.full(jnp.shape(points)[:-1], jnp.inf, jnp.float32)
+    for k in range(others.shape[0]):
+        distance = jnp.sqrt(squared_length(points - others[k]))
+        nearest = jnp.minimum(nearest, jnp.where(mask[k], distance, jnp.inf))
+    return nearest
