@@ -7,7 +7,7 @@ import jax.numpy as jnp
 
 
 def materialize(x):
-    """x, computed once: a fusion barrier for XLA's CPU backend.
+    """x, meant to be computed once: a fusion barrier for XLA's CPU backend.
 
     Left to itself, XLA fuses a small array's computation into each loop that reads it,
     and recomputes it per element read: the renderer's planes (the top unit's packed
@@ -15,9 +15,9 @@ def materialize(x):
     row and column cells for each pixel. `optimization_barrier` alone does not stop
     this on CPU (the backend expands barriers before fusing). An in-place update of x
     did when this was written (3bc49cc): XLA wrote x to a buffer before updating it.
-    The update writes x's own first
-    row back at an index hidden behind a barrier (a constant index would let XLA see
-    through it), so it is an identity that costs one row.
+    The update writes x's own first row back at an index hidden behind a barrier (a
+    constant index would let XLA see through it), so it is an identity that costs one
+    row.
 
     Not a hard barrier with this XLA (JAX 0.10.2): in the benchmark's compiled rollout
     the update is fused into the renderer's layer cut as well (its

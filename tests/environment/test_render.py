@@ -56,6 +56,20 @@ def test_pack_fields_fit_their_words_without_overlap():
         render.pack_fields(render.FIELD_BITS, 12)
 
 
+def test_paint_window_holds_every_pixel_a_unit_reaches_and_no_more():
+    # Pixel k to one side of the unit's own is reached where |k + 0.5 - f| <= r, f the
+    # centre's fraction of its pixel (float32, as `paint` computes it), f = 0 included.
+    fractions = np.concatenate([np.linspace(0, 1, 1001, dtype=np.float32)[:-1],
+                                [np.nextafter(np.float32(1), np.float32(0))]])
+    offsets = np.arange(-12, 13)
+    for r in [0.1875, 0.375, 0.5, 0.75, 1.0, 1.5, 2.0, 2.5, 2.6666667, 3.1666667, 5.0]:
+        r = np.float32(r)
+        dx = offsets[:, None].astype(np.float32) + np.float32(0.5) - fractions[None, :]
+        reached = offsets[(np.abs(dx) <= r).any(axis=1)]
+        half = render.box_size(float(r)) // 2
+        assert np.abs(reached).max() == half, (r, reached, half)
+
+
 def reference_layers(sim, state, view: str = "screen") -> dict:
     """The per-unit layers of the screen or the minimap by the documented rule, pixel by
     pixel (numpy): a unit covers the pixels whose centres lie within its radius and the
