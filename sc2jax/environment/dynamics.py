@@ -151,6 +151,17 @@ def _hit_by(block: PairBlock, target):
     return targeted_by(block.column(target[block.rows]), block.gap.shape[1])
 
 
+def _fold_rows(op, x):
+    """[C]: the rows of x ([R, C]) combined by `op` (jnp.add, jnp.maximum), one row at a
+    time: elementwise, where a reduction over the rows of a block's [B, R, C] pairs under
+    `vmap` goes to a library reduction on XLA's CPU backend. Sums of damage are exact
+    in any order (halves of hit points)."""
+    out = x[0]
+    for row in range(1, x.shape[0]):
+        out = op(out, x[row])
+    return out
+
+
 def _cooldown_jitter(key, size: int):
     """float32[size]: each weapon's cooldown jitter, uniform in {-1, 0, 1, 2} loops.
 
@@ -332,7 +343,7 @@ def game_loop(units: Units, key, playable, bursts: bool = False, workers: bool =
     # fires or hits, and then its target is in that block's columns.
     if combat:
         hit_by = [_hit_by(block, safe_target) for block in blocks]
-        damage = _cols(blocks, [jnp.sum(jnp.where(hit, hits[b.rows, None], 0.0), axis=0)
+        damage = _cols(blocks, [_fold_rows(jnp.add, jnp.where(hit, hits[b.rows, None], 0.0))
                                 for b, hit in zip(blocks, hit_by)])
     else:
         damage = jnp.zeros(n, jnp.float32)
@@ -365,7 +376,7 @@ def game_loop(units: Units, key, playable, bursts: bool = False, workers: bool =
     new_target = target
     if combat:
         attacker = _cols(blocks, [
-            jnp.max(jnp.where(hit & fires[b.rows, None], rows[b.rows, None], -1), axis=0)
+            _fold_rows(jnp.maximum, jnp.where(hit & fires[b.rows, None], rows[b.rows, None], -1))
             for b, hit in zip(blocks, hit_by)])
         called = _rows(blocks, lambda block: _called(units, data, block, fires, safe_target,
                                                      attacker))
