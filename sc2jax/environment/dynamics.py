@@ -21,6 +21,7 @@ import jax
 import jax.numpy as jnp
 
 from sc2jax.environment import harvest
+from sc2jax.environment.fusion import mask_once
 from sc2jax.environment.geometry import distances, squared_length
 from sc2jax.environment.state import (
     NO_TARGET,
@@ -176,6 +177,7 @@ def _cooldown_jitter(key, size: int):
 
 def pop_order(units: Units, done) -> Units:
     """Advances the order queue of units where `done` (bool[N]) holds."""
+    done = mask_once(done)  # Read by every field of the queue.
     shift = lambda x, fill: jnp.where(  # noqa: E731
         done.reshape((-1,) + (1,) * (x.ndim - 1)),
         jnp.concatenate([x[:, 1:], jnp.full_like(x[:, :1], fill)], axis=1), x)
@@ -475,7 +477,7 @@ def _complete_orders(units: Units, old_pos, step, goal_dist, has_target, moving)
     blocked = moving & (travelled < STUCK_FRACTION * speed) & (goal_dist < BLOCKED_ARRIVAL)
     arrived = units.alive & ~has_target & ((moving & (remaining <= ARRIVAL)) | blocked)
     walking_done = arrived & ((order == Order.MOVE) | (order == Order.ATTACK_MOVE))
-    patrol_turn = arrived & (order == Order.PATROL)
+    patrol_turn = mask_once(arrived & (order == Order.PATROL))
     units = units.replace(
         order_pos=jnp.concatenate([
             jnp.where(patrol_turn[:, None], units.patrol_origin, units.order_pos[:, 0])[:, None],
