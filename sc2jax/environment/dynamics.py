@@ -20,7 +20,7 @@ from typing import NamedTuple
 import jax
 import jax.numpy as jnp
 
-from sc2jax.environment import harvest
+from sc2jax.environment import harvest, threefry
 from sc2jax.environment.fusion import mask_once
 from sc2jax.environment.geometry import distances, squared_length
 from sc2jax.environment.state import (
@@ -169,10 +169,10 @@ def _cooldown_jitter(key, size: int):
     The values of `jax.random.randint(key, (size,), -1, 3)`, drawn once: randint draws
     two words of bits and, for a span of 4, uses only the second's low bits; XLA does
     not always drop the unused draw, a loop of its own per game loop (docs/benchmarks.md).
+    The hash is `threefry`'s, fused with the rest of the loop.
     """
-    _, low = jax.random.split(key)
-    bits = jax.random.bits(low, (size,), jnp.uint32) & 3
-    return bits.astype(jnp.float32) - 1.0
+    _, low = threefry.split(key)
+    return (threefry.bits(low, (size,)) & 3).astype(jnp.float32) - 1.0
 
 
 def pop_order(units: Units, done) -> Units:

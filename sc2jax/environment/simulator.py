@@ -20,7 +20,7 @@ import jax.numpy as jnp
 import numpy as np
 from flax import struct
 
-from sc2jax.environment import production, score, specs
+from sc2jax.environment import production, score, specs, threefry
 from sc2jax.environment.actions import apply_action
 from sc2jax.environment.availability import CARD_TABLE
 from sc2jax.environment.dense import DenseAction, check_dense_action
@@ -143,7 +143,7 @@ class Simulator:
         """
         params = self.default_params() if params is None else params
         over = self.episode_over(state, params)
-        reset_key, _ = jax.random.split(state.key)
+        reset_key, _ = threefry.split(state.key)
         # The auto-reset: a fresh episode, computed only when one starts.
         new = lazy_where(over, self._initial_state, reset_key, self.advance(state, action))
         ended = self.episode_over(new, params)
@@ -173,7 +173,7 @@ class Simulator:
     def advance(self, state: EnvState, action: DenseAction) -> EnvState:
         """Applies the action and runs `step_mul` game loops, with no auto-reset: the
         state part of `step` (the SC2 API's `RequestAction` then `RequestStep`)."""
-        _, step_key = jax.random.split(state.key)
+        _, step_key = threefry.split(state.key)
         return self._advance(state.replace(key=step_key), action)
 
     def episode_over(self, state: EnvState, params: EnvParams):
@@ -217,7 +217,7 @@ class Simulator:
         return state.score_cumulative.at[0].set(state.score)[self.score_index]
 
     def _initial_state(self, key) -> EnvState:
-        init_key, state_key = jax.random.split(key)
+        init_key, state_key = threefry.split(key)
         units, map_state, next_tag = self.game.init(init_key)
         h, w = self.game.geometry.size[1], self.game.geometry.size[0]
         state = EnvState(
@@ -240,7 +240,7 @@ class Simulator:
 
         def one_loop(state: EnvState, _):
             running = state.outcome == Outcome.RUNNING
-            key, loop_key = jax.random.split(state.key)
+            key, loop_key = threefry.split(state.key)
             units, events = game_loop(state.units, loop_key, game.geometry.playable,
                                       bursts=game.has_bursts, workers=game.has_workers,
                                       combat=game.has_enemies,

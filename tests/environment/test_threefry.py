@@ -1,0 +1,45 @@
+"""`threefry.split` and `threefry.bits` are `jax.random`'s draws, jitted and vmapped; and
+`fusion.mask_once` is its mask."""
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+import pytest
+
+from sc2jax.environment import threefry
+from sc2jax.environment.fusion import mask_once
+
+KEYS = [jax.random.PRNGKey(0), jax.random.PRNGKey(2 ** 31 - 1),
+        jax.random.split(jax.random.PRNGKey(7))[1], jnp.array([0xFFFFFFFF, 0x12345678], jnp.uint32)]
+
+
+@pytest.mark.parametrize("num", [1, 2, 3, 5])
+@pytest.mark.parametrize("key", KEYS)
+def test_split_is_jax_randoms(key, num):
+    np.testing.assert_array_equal(threefry.split(key, num), jax.random.split(key, num))
+
+
+@pytest.mark.parametrize("shape", [(1,), (23,), (28,), (4, 7), (0,)])
+@pytest.mark.parametrize("key", KEYS)
+def test_bits_are_jax_randoms(key, shape):
+    np.testing.assert_array_equal(threefry.bits(key, shape),
+                                  jax.random.bits(key, shape, jnp.uint32))
+
+
+def test_jitted_and_vmapped_draws_are_jax_randoms():
+    keys = jax.random.split(jax.random.PRNGKey(3), 16)
+    ours = jax.jit(jax.vmap(lambda k: (threefry.split(k), threefry.bits(k, (28,)))))(keys)
+    theirs = jax.vmap(lambda k: (jax.random.split(k), jax.random.bits(k, (28,), jnp.uint32)))(keys)
+    for a, b in zip(ours, theirs):
+        np.testing.assert_array_equal(a, b)
+
+
+def test_too_many_draws_is_a_clear_error():
+    with pytest.raises(ValueError, match="2\\*\\*32"):
+        threefry.bits(KEYS[0], (2 ** 16, 2 ** 16))
+
+
+def test_mask_once_is_the_mask():
+    mask = jnp.array([[True, False, True], [False, False, True]])
+    np.testing.assert_array_equal(jax.jit(mask_once)(mask), mask)
+    assert mask_once(mask).dtype == jnp.bool_
