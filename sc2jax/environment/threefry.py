@@ -1,11 +1,11 @@
-"""`split` and `bits`: the game loop's random draws, as `jax.random` makes them, in one
-fused kernel each.
+"""`split` and `bits`: the simulator's key splits and the game loop's jitter draws, as
+`jax.random` makes them, each one fused computation.
 
 JAX lowers its Threefry-2x32 hash on CPU as a loop of five rounds (`fori_loop`), which
-XLA runs as a while loop of several small kernels: every game loop split its key and drew
-the weapons' cooldown jitter through three such loops, whose dispatch cost more than the
-hashing at tens of environments. Written out as the twenty rounds, the hash is one
-elementwise computation that XLA fuses with what uses it.
+XLA runs as a while loop of small kernels dispatched one after another: every game loop
+split its key and drew the weapons' cooldown jitter through such loops (about 240
+kernels per agent step of FindAndDefeatZerglings at 64 environments). Written out as
+its twenty rounds, the hash is elementwise arithmetic that XLA fuses with what uses it.
 
 Both functions give exactly `jax.random.split(key, num)` and `jax.random.bits(key,
 shape)` for a raw `uint32[2]` key with JAX's default `jax_threefry_partitionable`
