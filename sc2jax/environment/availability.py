@@ -80,17 +80,23 @@ def _selected_types(units: Units, own_selected):
 def available_actions(units: Units, card_table=CARD_TABLE):
     """bool[num_functions]: the functions the player may call.
 
-    The command cards are united per selected unit type: a [num_unit_types] x
-    [num_unit_types, num_functions] product, where a gather of every unit's card row
-    would cost [num_slots, num_functions].
+    The command cards are united per selected unit type: the rows of the types that have
+    a card, each kept where its type is selected, OR-ed one at a time (elementwise),
+    where a gather of every unit's card row would cost [num_slots, num_functions]. (A
+    [num_unit_types] x [num_unit_types, num_functions] product did the same, but under
+    `vmap` XLA's CPU backend gives it to a library call.)
 
     Args:
       units: the units.
-      card_table: the command cards in use (maps may restrict them).
+      card_table: bool[num_unit_types, num_functions] numpy array, the command cards in
+        use (maps may restrict them).
     """
     own_selected = units.selected & units.alive & (units.owner == Owner.SELF)
-    cards = jnp.dot(_selected_types(units, own_selected).astype(jnp.float32),
-                    jnp.asarray(card_table, jnp.float32)) > 0
+    selected_types = _selected_types(units, own_selected)
+    table = np.asarray(card_table, bool)
+    cards = jnp.zeros(table.shape[1], bool)
+    for unit_type in np.flatnonzero(table.any(axis=1)):
+        cards = cards | (selected_types[unit_type] & jnp.asarray(table[unit_type]))
     constructing = jnp.any(own_selected & ~units.complete)
     mask = cards | (constructing & jnp.asarray(_CONSTRUCTION_MASK)) | jnp.asarray(_ALWAYS_MASK)
     count = jnp.sum(units.selected & units.alive)
