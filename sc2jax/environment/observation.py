@@ -276,8 +276,15 @@ def minimap_unit_rows(api: dict, minimap: Minimap, dtype=jnp.int32):
                               api["radius"] * minimap.pixels_per_unit, True, dtype)
 
 
-def observe(state: EnvState, renderer: Renderer, card_table=CARD_TABLE) -> dict:
-    """The padded observation dict of one environment."""
+def observe(state: EnvState, renderer: Renderer, card_table=CARD_TABLE,
+            previous: dict | None = None) -> dict:
+    """The padded observation dict of one environment.
+
+    Args:
+      previous: None, or an observation this renderer made before (of any state): its
+        feature layers are written into (`Renderer._draw`), so a loop that carries the
+        observation rewrites only the layers that can change.
+    """
     fmt = renderer.fmt
     units = state.units
     vectors = unit_vectors(units)
@@ -293,8 +300,10 @@ def observe(state: EnvState, renderer: Renderer, card_table=CARD_TABLE) -> dict:
     score_cumulative = state.score_cumulative.at[0].set(state.score)
     build_queue, production_queue = production_panel(units, specs.MAX_BUILD_QUEUE)
     obs = {
-        "feature_screen": renderer.screen(state),
-        "feature_minimap": renderer.minimap_layers(state),
+        "feature_screen": renderer.screen(
+            state, None if previous is None else previous["feature_screen"]),
+        "feature_minimap": renderer.minimap_layers(
+            state, None if previous is None else previous["feature_minimap"]),
         "player": _player(state),
         "game_loop": state.game_loop[None].astype(jnp.int32),
         "score_cumulative": score_cumulative.astype(jnp.int32),

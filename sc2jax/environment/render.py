@@ -11,6 +11,7 @@ from __future__ import annotations
 
 from collections.abc import Callable
 
+import jax
 import jax.numpy as jnp
 import numpy as np
 
@@ -65,6 +66,10 @@ TERRAIN_PACKING = {
     "camera": (12, 1),
 }
 """Map layer -> (bit shift, bits) in the packed map plane of a view."""
+
+STATIC_TERRAIN = ("height_map", "pathable", "buildable")
+"""Map layers read from the map's static grids alone: the same in every observation of a
+view that never moves (the minimap)."""
 
 DENSITY = {"unit_density": (1, 15), "unit_density_aa": (16, 255)}
 """Density layer -> (multiplier, cap) applied to the number of units at a pixel."""
@@ -206,6 +211,12 @@ def sight_grid(units: Units, xs, ys, own_slots: int | None = None):
     return seen
 
 
+def _runs(mask) -> list[tuple[int, int]]:
+    """The (start, stop) of each run of adjacent True entries of a bool sequence."""
+    edges = np.diff(np.concatenate([[0], np.asarray(mask, np.int8), [0]]))
+    return list(zip(np.flatnonzero(edges == 1).tolist(), np.flatnonzero(edges == -1).tolist()))
+
+
 def box_size(max_radius_pixels: float) -> int:
     """The window `paint` needs for units up to this radius (in pixels).
 
@@ -332,13 +343,19 @@ class Renderer:
         return plane
 
     def _draw(self, state: EnvState, names, size, pixel_pos, pixel_radius, box, xs, ys,
-              extra_bits: dict):
+              extra_bits: dict, previous=None):
         """Renders the named layers of one view (screen or minimap).
 
         Every layer is a bit field of one of a few int32 planes: the packed per-unit words
         of the top unit at each pixel (`pack_fields`), the unit density, and the packed map
         layers (`TERRAIN_PACKING`). The planes are computed once and the layers are cut
         out of them in one pass that writes the output directly.
+
+        With `previous`, the layers that are the same in every observation (zero layers,
+        and `STATIC_TERRAIN` where the view never moves: xs and ys are numpy) are kept
+        from it, and the others are written into it, one `dynamic_update_slice` per run of
+        adjacent layers: inside a jitted loop that carries the observation, XLA updates
+        its buffer in place and the kept layers cost nothing.
 
         Args:
           state: the state.
@@ -348,6 +365,8 @@ class Renderer:
           box: the `paint` window.
           xs, ys: world x of each column and y of each row.
           extra_bits: name -> () -> int[H, W] for 0/1 layers specific to this view.
+          previous: None, or int32[len(names), H, W]: these layers as this renderer drew
+            them for an earlier state (of any episode).
 
         Returns:
           int32[len(names), H, W].
@@ -379,7 +398,8 @@ class Renderer:
         if terrain is not None:
             planes["terrain"] = terrain
         order = list(planes)
-        source, shift, mask, multiplier, cap = [], [], [], [], []
+        source, shift, mask, multiplier, cap, kept = [], [], [], [], [], []
+        static_view = isinstance(xs, np.ndarray) and isinstance(ys, np.ndarray)
         for name in names:
             if name in unit_names:
                 word, bit, bits = packing[name]
@@ -391,27 +411,37 @@ class Renderer:
                 plane, (bit, bits), scale, top_value = "terrain", TERRAIN_PACKING[name], 1, None
             else:  # A layer that is zero on these maps.
                 plane, bit, bits, scale, top_value = None, 0, 0, 1, None
+            kept.append(plane is None or (static_view and name in STATIC_TERRAIN))
             source.append(order.index(plane) if plane is not None else 0)
             shift.append(bit)
             mask.append((1 << bits) - 1)
             multiplier.append(scale)
             cap.append(np.iinfo(np.int32).max if top_value is None else top_value)
         w, h = size
-        if not order:
-            return jnp.zeros((len(names), h, w), jnp.int32)
         column = lambda v: np.asarray(v, np.int32)[:, None, None]  # noqa: E731
         # Each plane is written once, and each layer picks its plane by a `where` chain:
         # a gather from the planes stacked on a layer axis makes XLA write the stack
         # and the layers with that axis first, and copy both to the batch-major layout.
         written = [materialize(planes[p].astype(jnp.int32)) for p in order]
         source = np.asarray(source)
-        chosen = written[0][None]
-        for k in range(1, len(order)):
-            chosen = jnp.where(column(source == k), written[k][None], chosen)
-        layers = jnp.right_shift(chosen, column(shift)) & column(mask)
-        if any(m != 1 for m in multiplier):
-            layers = jnp.minimum(layers * column(multiplier), column(cap))
-        return layers
+
+        def cut(lo: int, hi: int):  # int32[hi - lo, H, W]: layers lo..hi-1.
+            chosen = written[0][None]
+            for k in range(1, len(order)):
+                chosen = jnp.where(column(source[lo:hi] == k), written[k][None], chosen)
+            layers = jnp.right_shift(chosen, column(shift[lo:hi])) & column(mask[lo:hi])
+            if any(m != 1 for m in multiplier[lo:hi]):
+                layers = jnp.minimum(layers * column(multiplier[lo:hi]), column(cap[lo:hi]))
+            return layers
+
+        if previous is not None:
+            out = previous
+            for lo, hi in _runs(np.logical_not(kept)):
+                out = jax.lax.dynamic_update_slice(out, cut(lo, hi), (lo, 0, 0))
+            return out
+        if not order:
+            return jnp.zeros((len(names), h, w), jnp.int32)
+        return cut(0, len(names))
 
     def _unit_keys(self, units: Units, packing: dict, word_bits: int) -> list:
         """Each unit's paint keys: its `draw_rank` + 1 above each of its packed words.
@@ -432,18 +462,20 @@ class Renderer:
             keys[word] = keys[word] | jnp.left_shift(value, shift)
         return keys
 
-    def screen(self, state: EnvState):
-        """int32[len(screen_layers), H, W]."""
+    def screen(self, state: EnvState, previous=None):
+        """int32[len(screen_layers), H, W]; `previous`: an earlier screen to write into
+        (`_draw`)."""
         units = state.units
         camera = self.camera
         xs, ys = camera.pixel_centers(state.camera)
         radius = jnp.asarray(UNIT_DATA.radius)[units.type] * camera.pixels_per_unit
         return self._draw(state, [f.name for f in self.fmt.screen_layers], camera.size,
                           camera.world_to_pixel(state.camera, units.pos), radius,
-                          self.screen_box, xs, ys, {})
+                          self.screen_box, xs, ys, {}, previous)
 
-    def minimap_layers(self, state: EnvState):
-        """int32[len(minimap_layers), H, W]."""
+    def minimap_layers(self, state: EnvState, previous=None):
+        """int32[len(minimap_layers), H, W]; `previous`: an earlier minimap to write into
+        (`_draw`)."""
         units = state.units
         minimap = self.minimap
         xs, ys = minimap.pixel_centers()
@@ -455,7 +487,7 @@ class Renderer:
             names_drawn = names
         extra = {"camera": lambda: self._camera_layer(state.camera, xs, ys)}
         return self._draw(state, names_drawn, minimap.size, minimap.world_to_pixel(units.pos),
-                          radius, self.minimap_box, xs, ys, extra)
+                          radius, self.minimap_box, xs, ys, extra, previous)
 
     def _camera_layer(self, center, xs, ys):
         hx, hy = self.camera.view_half_extent()

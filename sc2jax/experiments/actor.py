@@ -163,7 +163,9 @@ def make_unroll(sim: Simulator, core: ActorCore, unroll_length: int) -> Unroll:
     """
     check_positive_int("unroll_length", unroll_length)
     reset = jax.vmap(sim.reset)
-    step = jax.vmap(sim.step)
+    # Each observation is written into the last one (`Simulator.step`'s `previous`).
+    step = jax.vmap(lambda env_state, action, obs: sim.step(env_state, action,
+                                                            previous=obs))
 
     def init(key: jax.Array, num_envs: int) -> ActorState:
         env_key, key = jax.random.split(key)
@@ -175,7 +177,7 @@ def make_unroll(sim: Simulator, core: ActorCore, unroll_length: int) -> Unroll:
         key, act_key = jax.random.split(state.key)
         obs, first = core.observe(state.timestep.observation), state.timestep.first()
         carry, action, log_prob = core.act(params, act_key, state.carry, obs, first)
-        env_state, ts = step(state.env_state, action)
+        env_state, ts = step(state.env_state, action, state.timestep.observation)
         episode_return = state.episode_return + ts.reward
         last = ts.last()
         record = dict(observation=obs, first=first, action=action, reward=ts.reward,

@@ -1,7 +1,9 @@
 r"""Simulator throughput: environment steps per second with the paper's random policy.
 
 Every step renders the whole observation (all screen and minimap layers and every
-non-spatial observation) and the random agent (SC2LE §4.4) picks its next action from the
+non-spatial observation; written into the last one's buffers, where the layers that
+cannot change on the map, such as its zero layers, stay as they are: `Simulator.step`'s
+`previous`) and the random agent (SC2LE §4.4) picks its next action from the
 last observation's `available_actions`. The measured program is one jitted function that
 `lax.scan`s K steps of (random action -> vmapped `Simulator.step`) for `num_envs`
 environments, each with its own random key, split over D devices (`--devices`: each
@@ -183,13 +185,14 @@ def sc2jax_rollout(sim: Simulator, num_envs: int, steps: int,
     """
     types = sim.fmt.types
     act = jax.vmap(random_action, in_axes=(0, 0, None))
-    step = jax.vmap(sim.step)
+    # The new observation is written into the last one (`Simulator.step`'s `previous`).
+    step = jax.vmap(lambda state, action, obs: sim.step(state, action, previous=obs))
 
     def one_step(carry, _):
         state, timestep, keys = carry
         keys, action_keys = split_keys(keys, 2)
         action = act(action_keys, timestep.observation["available_actions"], types)
-        state, timestep = step(state, action)
+        state, timestep = step(state, action, timestep.observation)
         return (state, timestep, keys), None
 
     key, reset_key = jax.random.split(jax.random.PRNGKey(0))

@@ -57,7 +57,8 @@ def measure(config: TrainConfig, repeats: int) -> dict:
             keys = jax.random.split(key, config.num_envs)
             action = jax.vmap(lambda kk, a: random_action(kk, a, types))(
                 keys, ts.observation["available_actions"])
-            return jax.vmap(sim.step)(env_state, action), None
+            step = lambda s, a, o: sim.step(s, a, previous=o)  # noqa: E731
+            return jax.vmap(step)(env_state, action, ts.observation), None
 
         return jax.lax.scan(body, (actor.env_state, actor.timestep),
                             jax.random.split(actor.key, k))[0][1].reward

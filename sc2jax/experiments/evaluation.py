@@ -81,7 +81,7 @@ def _episode_batch(sim: Simulator, policy: Policy, num_envs: int):
 
         def body(carry, key):
             state, ts, done, score, steps = carry
-            state, ts = sim.step(state, policy(key, ts.observation))
+            state, ts = sim.step(state, policy(key, ts.observation), previous=ts.observation)
             score = score + jnp.where(done, 0.0, ts.reward)
             steps = steps + jnp.where(done, 0, 1)
             done = done | ts.last()
@@ -101,7 +101,8 @@ def core_episodes_fn(sim: Simulator, core, num_envs: int):
     environments, acting with an `ActorCore` (vmap it over parameters to evaluate many
     policies at once)."""
     length = max_episode_steps(sim)
-    reset, step = jax.vmap(sim.reset), jax.vmap(sim.step)
+    reset = jax.vmap(sim.reset)
+    step = jax.vmap(lambda state, action, obs: sim.step(state, action, previous=obs))
 
     def run(params, key):
         reset_key, run_key = jax.random.split(key)
@@ -111,7 +112,7 @@ def core_episodes_fn(sim: Simulator, core, num_envs: int):
             state, ts, core_carry, done, score, steps = carry
             core_carry, action, _ = core.act(params, key, core_carry,
                                              core.observe(ts.observation), ts.first())
-            state, ts = step(state, action)
+            state, ts = step(state, action, ts.observation)
             score = score + jnp.where(done, 0.0, ts.reward)
             steps = steps + jnp.where(done, 0, 1)
             return (state, ts, core_carry, done | ts.last(), score, steps), None
