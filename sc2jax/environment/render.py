@@ -352,10 +352,11 @@ class Renderer:
         out of them in one pass that writes the output directly.
 
         With `previous`, the layers that are the same in every observation (zero layers,
-        and `STATIC_TERRAIN` where the view never moves: xs and ys are numpy) are kept
-        from it, and the others are written into it, one `dynamic_update_slice` per run of
-        adjacent layers: inside a jitted loop that carries the observation, XLA updates
-        its buffer in place and the kept layers cost nothing.
+        and where the view never moves, xs and ys numpy: `STATIC_TERRAIN`, and the
+        visibility of a map without fog) are kept from it, and the others are written
+        into it, one `dynamic_update_slice` per run of adjacent layers: inside a jitted
+        loop that carries the observation, XLA updates its buffer in place and the kept
+        layers cost nothing.
 
         Args:
           state: the state.
@@ -411,7 +412,8 @@ class Renderer:
                 plane, (bit, bits), scale, top_value = "terrain", TERRAIN_PACKING[name], 1, None
             else:  # A layer that is zero on these maps.
                 plane, bit, bits, scale, top_value = None, 0, 0, 1, None
-            kept.append(plane is None or (static_view and name in STATIC_TERRAIN))
+            kept.append(plane is None or (static_view and (
+                name in STATIC_TERRAIN or (name == "visibility_map" and not self.fog))))
             source.append(order.index(plane) if plane is not None else 0)
             shift.append(bit)
             mask.append((1 << bits) - 1)

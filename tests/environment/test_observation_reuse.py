@@ -57,8 +57,23 @@ def test_observations_written_into_the_last_are_the_same(map_name):
             np.testing.assert_array_equal(into[key], plain[key], err_msg=key)
 
 
-def test_only_layers_that_cannot_change_are_kept():
-    sim = small_sim("FindAndDefeatZerglings")
+# map -> (screen layers kept, screen layers written, minimap kept, minimap written).
+KEPT = {
+    "FindAndDefeatZerglings": ({"creep", "unit_energy", "effects", "build_progress"},
+                               {"height_map", "visibility_map", "player_relative"},
+                               {"height_map", "pathable", "buildable", "alerts"},
+                               {"visibility_map", "camera", "selected"}),
+    # No fog: the minimap's visibility is the revealed playable area.
+    "MoveToBeacon": ({"creep", "unit_shields", "placeholder"},
+                     {"visibility_map", "unit_type", "pathable"},
+                     {"height_map", "visibility_map", "creep"},
+                     {"camera", "player_relative"}),
+}
+
+
+@pytest.mark.parametrize("map_name", sorted(KEPT))
+def test_only_layers_that_cannot_change_are_kept(map_name):
+    sim = small_sim(map_name)
     garbage = -7
 
     def start(obs):  # Every layer of the first `previous` holds garbage.
@@ -77,12 +92,9 @@ def test_only_layers_that_cannot_change_are_kept():
         for i, f in enumerate(layers):
             if f.name in kept:
                 assert np.all(plain[:, i] == plain[:1, i]), (key, f.name)
-        if key == "feature_screen":
-            assert {"creep", "unit_energy", "effects", "build_progress"} <= kept
-            assert not kept & {"height_map", "visibility_map", "player_relative"}
-        else:
-            assert {"height_map", "pathable", "buildable", "alerts"} <= kept
-            assert not kept & {"visibility_map", "camera", "selected"}
+        must_keep, must_write = KEPT[map_name][:2] if key == "feature_screen" else \
+            KEPT[map_name][2:]
+        assert must_keep <= kept and not kept & must_write, (key, kept)
 
 
 @pytest.mark.parametrize("key,shape", [("feature_screen", (27, 32, 31)),
@@ -102,7 +114,7 @@ def test_previous_of_another_shape_is_refused(key, shape):
 def test_a_subset_of_layers_written_into_the_last():
     fmt = ObservationFormat(screen_size=24, minimap_size=16,
                             screen_features=("creep", "selected", "height_map"),
-                            minimap_features=("buildable", "camera"))
+                            minimap_features=("buildable", "visibility_map", "camera"))
     for plain, into in play_both(small_sim("MoveToBeacon", fmt), seed=2, steps=4):
         for key in ("feature_screen", "feature_minimap"):
             np.testing.assert_array_equal(into[key], plain[key], err_msg=key)
