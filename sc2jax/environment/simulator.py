@@ -141,9 +141,10 @@ class Simulator:
           previous: None, or an observation this simulator returned before (the last
             timestep's, of any episode). The new observation's feature layers are
             written into its buffers, and the layers that are the same in every
-            observation of this map and format (zero layers, the minimap's terrain) are
-            kept, not written again: in a jitted loop that carries the timestep, XLA
-            then updates them in place. The observation is the same as without it.
+            observation of this map and format (zero layers; the minimap's terrain, and
+            its visibility on maps without fog) are kept, not written again: in a jitted
+            loop that carries the timestep, XLA then updates them in place. The
+            observation is the same as without it.
 
         Returns:
           (state, dm_env.TimeStep of arrays).
