@@ -202,6 +202,10 @@ class Simulator:
         past the last living unit hold nothing the player can see.
         """
         self._check_previous(previous)
+        return self._observe(state, previous)
+
+    def _observe(self, state: EnvState, previous: dict | None) -> dict:
+        """`observe` with `previous` already checked."""
         layers = None if previous is None else {
             k: previous[k] for k in ("feature_screen", "feature_minimap")}
         sizes = self.game.slot_sizes if self.use_slot_sizes else None
@@ -234,7 +238,7 @@ class Simulator:
 
     def _timestep(self, state, step_type, reward, discount, previous=None):
         return dm_env.TimeStep(step_type=step_type, reward=reward, discount=discount,
-                               observation=self.observe(state, previous))
+                               observation=self._observe(state, previous))
 
     def _reward(self, old: EnvState, new: EnvState, ended):
         if self.score_index == -1:  # The outcome.
