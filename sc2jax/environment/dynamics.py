@@ -527,8 +527,12 @@ def _resolve_collisions(pos, alive, data, sized: bool = False):
     # Share of the overlap i gives way: half between two mobile units, all against a wall.
     share = jnp.where(mobile[None, :], 0.5, 1.0) * mobile[:, None]
     push = jnp.where(pair, overlap * share, 0.0)
-    # Coincident units separate along a fixed per-pair direction.
-    angle = jnp.arange(n) * 2.4
+    # Coincident units separate along a fixed per-pair direction. The directions are
+    # constants of the compiled program: computed in it, XLA hoists them out of the game
+    # loop but still evaluates N cosines and sines (library calls) per agent step.
+    with jax.ensure_compile_time_eval():
+        angle = jnp.arange(n) * 2.4
+        tie_x, tie_y = jnp.cos(angle), jnp.sin(angle)
     apart = dist > 1e-4
     along = lambda d, tie: jnp.where(apart, d / dist, tie[:, None] - tie[None, :])  # noqa: E731
 
@@ -536,4 +540,4 @@ def _resolve_collisions(pos, alive, data, sized: bool = False):
         fixed = (along(d, tie) * push * 2 ** PUSH_BITS).astype(jnp.int32)  # Truncated.
         return jnp.sum(fixed, axis=1).astype(jnp.float32) * 2 ** -PUSH_BITS
 
-    return pos + jnp.stack([total(dx, jnp.cos(angle)), total(dy, jnp.sin(angle))], axis=-1)
+    return pos + jnp.stack([total(dx, tie_x), total(dy, tie_y)], axis=-1)
