@@ -1,5 +1,6 @@
-"""`split` and `bits`: the simulator's key splits and the game loop's jitter draws, as
-`jax.random` makes them, each one fused computation.
+"""`split`, `bits` and `randint`: the simulator's key splits, the game loop's jitter
+draws and the random agent's draws, as `jax.random` makes them, each one fused
+computation.
 
 JAX lowers its Threefry-2x32 hash on CPU as a loop of five rounds (`fori_loop`), which
 XLA runs as a while loop of small kernels dispatched one after another: every game loop
@@ -7,8 +8,9 @@ split its key and drew the weapons' cooldown jitter through such loops (about 24
 kernels per agent step of FindAndDefeatZerglings at 64 environments). Written out as
 its twenty rounds, the hash is elementwise arithmetic that XLA fuses with what uses it.
 
-Both functions give exactly `jax.random.split(key, num)` and `jax.random.bits(key,
-shape)` for a raw `uint32[2]` key with JAX's default `jax_threefry_partitionable`
+They give exactly `jax.random.split(key, num)`, `jax.random.bits(key, shape)` and
+`jax.random.randint(key, shape, minval, maxval)` (int32) for a raw `uint32[2]` key with
+JAX's default `jax_threefry_partitionable`
 (checked by tests/environment/test_threefry.py), so the game's draws, and its episodes,
 are those of `jax.random`. Keys are raw `uint32[2]` arrays (`jax.random.PRNGKey`).
 """
@@ -67,3 +69,19 @@ def bits(key, shape: tuple[int, ...]):
     """uint32[shape]: uniform random words, `jax.random.bits(key, shape, jnp.uint32)`."""
     y0, y1 = hash2x32(key, *_counters(math.prod(shape)))
     return (y0 ^ y1).reshape(shape)
+
+
+def randint(key, shape: tuple[int, ...], minval, maxval):
+    """int32[shape]: `jax.random.randint(key, shape, minval, maxval)` (int32 bounds,
+    broadcast to `shape`): two words per value, reduced modulo the span as JAX does (a
+    span of 0 or less gives minval)."""
+    high_key, low_key = split(key)
+    minval = jnp.broadcast_to(jnp.asarray(minval, jnp.int32), shape)
+    maxval = jnp.broadcast_to(jnp.asarray(maxval, jnp.int32), shape)
+    span = jnp.where(maxval <= minval, np.uint32(1), (maxval - minval).astype(jnp.uint32))
+    # 2**32 mod span, as (2**16 mod span)**2 mod span, and (a * b) mod n as
+    # ((a mod n) * (b mod n)) mod n, in uint32 arithmetic.
+    multiplier = np.uint32(2 ** 16) % span
+    multiplier = (multiplier * multiplier) % span
+    offset = (bits(high_key, shape) % span) * multiplier + bits(low_key, shape) % span
+    return minval + (offset % span).astype(jnp.int32)

@@ -37,7 +37,7 @@ import jax
 import jax.numpy as jnp
 from absl import app, flags, logging
 
-from sc2jax.environment import MAPS, ObservationFormat, Simulator
+from sc2jax.environment import MAPS, ObservationFormat, Simulator, threefry
 from sc2jax.environment.agents.random_agent import random_action
 from sc2jax.environment.devices import (
     SMALL_LOOP_BYTES,
@@ -157,7 +157,7 @@ def time_round_robin(programs: Sequence[Program], repeats: int) -> list[Result]:
 
 def split_keys(keys, num: int):
     """`num` keys [num, B, 2] from each of B keys [B, 2] (one split per environment)."""
-    return jax.vmap(lambda key: jax.random.split(key, num), out_axes=1)(keys)
+    return jax.vmap(lambda key: threefry.split(key, num), out_axes=1)(keys)
 
 
 def compiled_rollout(one_step: Callable, steps: int, devices: Sequence[jax.Device] | None):

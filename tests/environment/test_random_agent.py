@@ -42,3 +42,15 @@ def test_arguments_are_uniform_in_range_and_independent():
     # x and y are drawn independently (not one value used twice).
     assert np.corrcoef(screen[:, 0], screen[:, 1])[0, 1] < 0.1
     assert not np.array_equal(np.asarray(actions.screen), np.asarray(actions.screen2))
+
+
+def test_typed_and_raw_keys_draw_the_same_action():
+    # A raw key takes the fused `threefry.randint`, a typed one `jax.random.randint`.
+    available = np.zeros(573, bool)
+    available[[0, 1, 2, 3, 7, 12, 331]] = True
+    types = resolve_types(24, 16)
+    for seed in range(5):
+        raw = jax.device_get(random_action(jax.random.PRNGKey(seed), available, types))
+        typed = jax.device_get(random_action(jax.random.key(seed), available, types))
+        for a, b in zip(raw, typed):
+            np.testing.assert_array_equal(a, b)

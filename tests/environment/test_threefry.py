@@ -1,5 +1,5 @@
-"""`threefry.split` and `threefry.bits` are `jax.random`'s draws, jitted and vmapped; and
-`fusion.mask_once` is its mask."""
+"""`threefry.split`, `threefry.bits` and `threefry.randint` are `jax.random`'s draws, jitted
+and vmapped; and `fusion.mask_once` is its mask."""
 
 import jax
 import jax.numpy as jnp
@@ -32,6 +32,22 @@ def test_jitted_and_vmapped_draws_are_jax_randoms():
     theirs = jax.vmap(lambda k: (jax.random.split(k), jax.random.bits(k, (28,), jnp.uint32)))(keys)
     for a, b in zip(ours, theirs):
         np.testing.assert_array_equal(a, b)
+
+
+@pytest.mark.parametrize("bounds", [(0, 573), (0, 1), (0, 0), (-1, 3), (5, 2), (0, 84),
+                                    (0, 2 ** 31 - 1), (-2 ** 31, 2 ** 31 - 1)])
+@pytest.mark.parametrize("key", KEYS)
+def test_randint_is_jax_randoms(key, bounds):
+    np.testing.assert_array_equal(threefry.randint(key, (9,), *bounds),
+                                  jax.random.randint(key, (9,), *bounds))
+
+
+def test_randint_with_a_bound_per_value_jitted_and_vmapped():
+    keys = jax.random.split(jax.random.PRNGKey(5), 8)
+    maxval = jnp.array([573, 64, 64, 2, 10, 1, 0, 500], jnp.int32)
+    ours = jax.jit(jax.vmap(lambda k: threefry.randint(k, (8,), 0, maxval)))(keys)
+    theirs = jax.vmap(lambda k: jax.random.randint(k, (8,), 0, maxval))(keys)
+    np.testing.assert_array_equal(ours, theirs)
 
 
 def test_too_many_draws_is_a_clear_error():

@@ -7,6 +7,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
+from sc2jax.environment import threefry
 from sc2jax.environment.arguments import Arguments
 from sc2jax.environment.dense import DenseAction
 
@@ -20,7 +21,7 @@ def random_action(key, available_actions, types: Arguments) -> DenseAction:
     components (x, y), the others as one.
 
     Args:
-      key: RNG key.
+      key: RNG key (a raw `uint32[2]` key, or a typed one).
       available_actions: bool[num_functions], the observation's mask (no_op, at least,
         is always available).
       types: the argument types resolved to the environment's resolutions.
@@ -34,7 +35,10 @@ def random_action(key, available_actions, types: Arguments) -> DenseAction:
     rank = jax.lax.associative_scan(jnp.add, available.astype(jnp.int32))
     sizes = [size for t in types for size in t.sizes]
     bounds = jnp.concatenate([rank[-1:], jnp.array(sizes, jnp.int32)])
-    values = jax.random.randint(key, (len(bounds),), 0, bounds)
+    if jnp.issubdtype(jnp.asarray(key).dtype, jax.dtypes.prng_key):  # A typed key.
+        values = jax.random.randint(key, (len(bounds),), 0, bounds)
+    else:  # The same draw, fused (`threefry`: JAX's hash is a loop of small kernels on CPU).
+        values = threefry.randint(key, (len(bounds),), 0, bounds)
     function = jnp.argmax(rank > values[0]).astype(jnp.int32)
     parts = jnp.split(values[1:], np.cumsum([len(t.sizes) for t in types])[:-1])
     arguments = [part if t.is_point else part[0] for part, t in zip(parts, types)]

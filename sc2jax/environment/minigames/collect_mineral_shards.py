@@ -13,6 +13,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
+from sc2jax.environment import threefry
 from sc2jax.environment.lazy import lazy_where
 from sc2jax.environment.minigames.base import (
     MiniGame,
@@ -77,7 +78,7 @@ class CollectMineralShards(MiniGame):
 
     def on_step(self, state):
         units = state.units
-        key, sub = jax.random.split(state.key)
+        key, sub = threefry.split(state.key)
         respawn = ~units.alive[SHARDS].any()
 
         def respawned(op):

@@ -16,6 +16,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
+from sc2jax.environment import threefry
 from sc2jax.environment.geometry import squared_length
 from sc2jax.environment.lazy import lazy_where
 from sc2jax.environment.minigames.base import (
@@ -135,7 +136,7 @@ class FindAndDefeatZerglings(MiniGame):
     def on_step(self, state):
         units = state.units
         marine_alive = units.alive[MARINES]
-        key, sub = jax.random.split(state.key)
+        key, sub = threefry.split(state.key)
         respawn = ~units.alive[ZERGLINGS].any() & marine_alive.any()
 
         def respawned(op):

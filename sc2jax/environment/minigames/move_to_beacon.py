@@ -11,6 +11,7 @@ from __future__ import annotations
 import jax
 import jax.numpy as jnp
 
+from sc2jax.environment import threefry
 from sc2jax.environment.geometry import squared_length
 from sc2jax.environment.lazy import lazy_where
 from sc2jax.environment.minigames.base import (
@@ -66,7 +67,7 @@ class MoveToBeacon(MiniGame):
         marine = units.pos[MARINE]
         reached = units.alive[MARINE] & (
             squared_length(marine - units.pos[BEACON]) <= REWARD_RADIUS ** 2)
-        key, sub = jax.random.split(state.key)
+        key, sub = threefry.split(state.key)
         beacon = lazy_where(reached, lambda op: _beacon_position(*op), (sub, marine),
                             units.pos[BEACON])
         pos = units.pos.at[BEACON].set(beacon)

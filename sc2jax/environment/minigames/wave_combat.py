@@ -33,6 +33,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
+from sc2jax.environment import threefry
 from sc2jax.environment.lazy import lazy_where
 from sc2jax.environment.minigames.base import MiniGame, flat_geometry, uniform_in_rect
 from sc2jax.environment.state import Outcome, Owner, Units, place, place_where
@@ -123,7 +124,7 @@ class WaveCombat(MiniGame):
         first free slots, a new side, the marines lined up and selected, new enemies.
         Only the marines' slots are written: the empty slots stay as they were. Written
         with selects, not scatters: it runs inside the game loop (`place_where`)."""
-        key, sub = jax.random.split(state.key)
+        key, sub = threefry.split(state.key)
         marine_point, enemy_point = draw_sides(sub)
         old, enemies = state.units, len(self.ENEMIES)
         survivors = old.alive[enemies:]
