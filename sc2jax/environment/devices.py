@@ -102,10 +102,14 @@ def compile_small_loops_whole(max_bytes: int = SMALL_LOOP_BYTES) -> None:
     after another: about 1,300 of them in an agent step's game loops on MoveToBeacon at
     one environment. A loop whose body XLA can compile whole (no scatter, sort or
     custom call: the game loops of the first three mini-games) runs as one kernel
-    instead, with the same results; at one environment an agent step then runs
-    1.03-1.84x faster (docs/benchmarks.md). It changes the whole process's CPU
-    compilation, so it is the caller's choice (`python -m sc2jax.experiments.benchmark`
-    makes it); a value already in `XLA_FLAGS` is kept.
+    instead; at one environment an agent step then runs 1.03-1.84x faster
+    (docs/benchmarks.md). The same game, though not always the same bits: compiled as
+    one kernel, a loop's float arithmetic can round differently in its last bit
+    (FindAndDefeatZerglings at one environment: the same episodes for 1,000 agent steps,
+    the marines' positions 1e-5 apart by 2,000). Each compiled program is still
+    deterministic. It changes the whole process's CPU compilation, so it is the
+    caller's choice (`python -m sc2jax.experiments.benchmark` makes it); a value already
+    in `XLA_FLAGS` is kept.
 
     Call it before JAX starts its backends (before any computation).
 
