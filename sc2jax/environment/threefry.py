@@ -10,9 +10,9 @@ its twenty rounds, the hash is elementwise arithmetic that XLA fuses with what u
 
 They give exactly `jax.random.split(key, num)`, `jax.random.bits(key, shape)` and
 `jax.random.randint(key, shape, minval, maxval)` (int32) for a raw `uint32[2]` key with
-JAX's default `jax_threefry_partitionable`
-(checked by tests/environment/test_threefry.py), so the game's draws, and its episodes,
-are those of `jax.random`. Keys are raw `uint32[2]` arrays (`jax.random.PRNGKey`).
+JAX's default `jax_threefry_partitionable` (checked by tests/environment/test_threefry.py),
+so the game's draws, and its episodes, are those of `jax.random`. Keys are raw
+`uint32[2]` arrays (`jax.random.PRNGKey`).
 """
 
 from __future__ import annotations
