@@ -71,7 +71,7 @@ def lazy_where(pred, compute: Callable[[Any], Out], operand: Any, otherwise: Out
         otherwise = jax.tree_util.tree_map(batched, otherwise, otherwise_batched)
 
         lanes = axis_size // FEW_LANES_DIVISOR
-        if lanes < 1:
+        if lanes < 1:  # A `cond`: a loop over the lanes measured 0.35x at one environment.
             def every_lane():
                 fresh = jax.vmap(compute)(operand)
                 return jax.tree_util.tree_map(
