@@ -19,6 +19,7 @@ from typing import NamedTuple
 
 import jax
 import jax.numpy as jnp
+import numpy as np
 
 from sc2jax.environment import harvest, threefry
 from sc2jax.environment.fusion import mask_once
@@ -504,9 +505,11 @@ def _resolve_collisions(pos, alive, data, sized: bool = False):
     """Pushes overlapping ground units apart; immobile ones (structures, resources) don't
     move. Items that do not collide (`colliding`) are ignored.
 
-    The x and y components are separate [N, N] arrays: a reduction over an [N, N, 2]
-    array is several times slower on XLA's CPU backend. Each push is at most both radii,
-    so N of them sum within int32 for every map (checked).
+    The x and y components are separate [N, N] arrays, summed over each row by one
+    variadic reduce: a reduction over an [N, N, 2] array is several times slower on XLA's
+    CPU backend, and two sums recompute each pair's distance (1.04x at one environment,
+    docs/benchmarks.md). Each push is at most both radii, so N of them sum within int32
+    for every map (checked).
 
     `sized` (static): the distances as `hypot`. XLA compiles `sqrt(dx * dx + dy * dy)`
     differently for N <= 32 (one loop fusion) than above, and its last bit can differ;
@@ -536,8 +539,9 @@ def _resolve_collisions(pos, alive, data, sized: bool = False):
     apart = dist > 1e-4
     along = lambda d, tie: jnp.where(apart, d / dist, tie[:, None] - tie[None, :])  # noqa: E731
 
-    def total(d, tie):  # float32[N]: the pushes along one axis, summed in fixed point.
-        fixed = (along(d, tie) * push * 2 ** PUSH_BITS).astype(jnp.int32)  # Truncated.
-        return jnp.sum(fixed, axis=1).astype(jnp.float32) * 2 ** -PUSH_BITS
-
-    return pos + jnp.stack([total(dx, tie_x), total(dy, tie_y)], axis=-1)
+    fixed = lambda d, tie: (along(d, tie) * push * 2 ** PUSH_BITS).astype(jnp.int32)  # noqa: E731
+    # Both axes' pushes (truncated to fixed point) summed by one variadic reduce: one loop
+    # over the pairs, where two sums each recompute the pair's distance.
+    totals = jax.lax.reduce((fixed(dx, tie_x), fixed(dy, tie_y)), (np.int32(0), np.int32(0)),
+                            lambda a, b: (a[0] + b[0], a[1] + b[1]), (1,))
+    return pos + jnp.stack(totals, axis=-1).astype(jnp.float32) * 2 ** -PUSH_BITS
