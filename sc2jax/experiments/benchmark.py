@@ -16,19 +16,33 @@ ratios hold. Where the rollouts of one count would not fit in memory together (t
 carries hold every environment's observation: about 0.65 GB per map at 1,024 environments
 of 64² layers), they are timed in groups that do, each group with its own SMAX-3m.
 
+On a CPU, XLA runs a program's kernels on a pool of threads, one per core unless the
+`PJRT_NPROC` environment variable says otherwise when JAX starts. Where an agent step is
+a few large kernels the pool's threads share them; where its game loops are one kernel
+(few environments, `--small_loop_bytes`) the second thread only takes small kernels from
+the first, and a process with one device and one thread ran FindAndDefeatZerglings at one
+environment 1.2-1.5x faster (docs/benchmarks.md). `--threads` lists the pool sizes to
+measure, each in its own process: 0 is XLA's default with every `--devices` count; n > 0
+times one-device runs in a process with one CPU device and n threads.
+
 Optionally (`--smax`), JaxMARL's SMAX (an optional, benchmark-only dependency:
 `pip install jaxmarl`) is measured the same way on its "3m" scenario, with random
 available actions for the three allied marines against its heuristic enemy.
 
     python -m sc2jax.experiments.benchmark
     python -m sc2jax.experiments.benchmark --maps=MoveToBeacon --num_envs=1,64 \
-        --output=docs/benchmarks.md
+        --threads=1,0 --output=docs/benchmarks.md
 """
 
 from __future__ import annotations
 
 import datetime
+import json
+import os
 import statistics
+import subprocess
+import sys
+import tempfile
 import time
 from collections.abc import Callable, Sequence
 from typing import Any, NamedTuple
@@ -74,8 +88,14 @@ flags.DEFINE_list("devices", ["1", "0"], "Device counts to split the environment
 flags.DEFINE_integer("small_loop_bytes", SMALL_LOOP_BYTES, "On a CPU, while loops that touch "
                      "at most this many bytes are compiled whole "
                      "(`devices.compile_small_loops_whole`); 0 keeps XLA's default.")
+flags.DEFINE_list("threads", ["0"], "XLA:CPU thread-pool sizes to measure with, each in its "
+                  "own process (`PJRT_NPROC`): 0 is XLA's default (a thread per core) with "
+                  "every --devices count; n > 0 times one-device runs only, in a process "
+                  "with one CPU device and n threads.")
 flags.DEFINE_bool("smax", True, "Also measure JaxMARL's SMAX 3m (skipped if not installed).")
 flags.DEFINE_string("output", None, "Markdown file to write the results section into.")
+flags.DEFINE_string("results_json", None, "Also write the results as JSON here (the process "
+                    "of one --threads size writes them for the run that started it).")
 
 SECTION = "## Simulator throughput"
 SMAX_SCENARIO = "3m"
@@ -92,6 +112,7 @@ class Result(NamedTuple):
       seconds: the median wall time of one call.
       step_mul: game loops per agent step.
       reference: the SMAX-3m result timed in the same rounds (None if none was).
+      threads: the XLA:CPU thread-pool size it ran with (0: XLA's default).
     """
 
     name: str
@@ -101,6 +122,18 @@ class Result(NamedTuple):
     seconds: float
     step_mul: int
     reference: Result | None = None
+    threads: int = 0
+
+    def to_json(self) -> dict:
+        out = self._asdict()
+        out["reference"] = None if self.reference is None else self.reference.to_json()
+        return out
+
+    @classmethod
+    def from_json(cls, data: dict) -> Result:
+        reference = data.get("reference")
+        return cls(**{**data, "reference": None if reference is None
+                      else cls.from_json(reference)})
 
     @property
     def agent_steps_per_second(self) -> float:
@@ -257,14 +290,15 @@ def markdown(results: Sequence[Result], smax: Sequence[Result], command: str, be
              f"- Date: {datetime.datetime.now().strftime('%Y-%m-%d %H:%M')}",
              f"- Machine before the run: {before}",
              f"- Load after the run: {after}", ""]
-    header = "| Map | Envs | Devices | K | Agent steps/s | Game steps/s |"
-    rule = "|---|---:|---:|---:|---:|---:|"
+    header = "| Map | Envs | Devices | Threads | K | Agent steps/s | Game steps/s |"
+    rule = "|---|---:|---:|---:|---:|---:|---:|"
     if smax:
         header += " × SMAX-3m |"
         rule += "---:|"
     lines += [header, rule]
     for r, base in [(r, r.reference) for r in results] + [(r, r) for r in smax]:
-        row = (f"| {r.name} | {r.num_envs} | {r.devices} | {r.steps} | "
+        row = (f"| {r.name} | {r.num_envs} | {r.devices} | {r.threads or 'XLA default'} | "
+               f"{r.steps} | "
                f"{r.agent_steps_per_second:,.0f} | {r.game_steps_per_second:,.0f} |")
         if smax:
             row += (f" {r.agent_steps_per_second / base.agent_steps_per_second:.2f} |"
@@ -288,7 +322,29 @@ def main(argv: Sequence[str]) -> None:
     device_counts = non_negative_ints("devices", FLAGS.devices)
     if FLAGS.small_loop_bytes < 0:
         raise ValueError(f"--small_loop_bytes must be >= 0, got {FLAGS.small_loop_bytes}")
-    use_cpu_cores(max(device_counts))  # Before `machine()` starts the backend.
+    threads = non_negative_ints("threads", FLAGS.threads)
+    if len(set(threads)) != len(threads):
+        raise ValueError(f"--threads must be distinct integers >= 0, got {threads}")
+    settings = [(k, v) for k, v in (
+        ("maps", ",".join(FLAGS.maps)), ("num_envs", ",".join(FLAGS.num_envs)),
+        ("devices", ",".join(FLAGS.devices)),
+        ("screen_size", FLAGS.screen_size), ("minimap_size", FLAGS.minimap_size),
+        ("step_mul", FLAGS.step_mul), ("steps", FLAGS.steps), ("repeats", FLAGS.repeats),
+        ("small_loop_bytes", FLAGS.small_loop_bytes), ("smax", FLAGS.smax))]
+    command = "python -m sc2jax.experiments.benchmark " + " ".join(
+        f"--{k}={v}" for k, v in settings + [("threads", ",".join(FLAGS.threads))])
+    if len(threads) > 1:
+        _each_thread_count(threads, settings, command)
+        return
+    # The process's own pool, set before JAX starts its backends (`machine()` does).
+    for variable in THREAD_VARIABLES:
+        os.environ.pop(variable, None)
+    if threads[0]:
+        os.environ[THREAD_VARIABLES[0]] = str(threads[0])
+        jax.config.update("jax_num_cpu_devices", 1)
+        device_counts = [1]
+    else:
+        use_cpu_cores(max(device_counts))
     if FLAGS.small_loop_bytes:
         compile_small_loops_whole(FLAGS.small_loop_bytes)
     fmt = ObservationFormat(screen_size=FLAGS.screen_size, minimap_size=FLAGS.minimap_size)
@@ -323,13 +379,6 @@ def main(argv: Sequence[str]) -> None:
                     "allowed: fewer environments, more devices or smaller layers")
         groups = memory_groups(sizes, budget)
         plans.append((n, [[runs[i] for i in group] for group in groups]))
-    command = "python -m sc2jax.experiments.benchmark " + " ".join(
-        f"--{k}={v}" for k, v in (
-            ("maps", ",".join(FLAGS.maps)), ("num_envs", ",".join(FLAGS.num_envs)),
-            ("devices", ",".join(FLAGS.devices)),
-            ("screen_size", FLAGS.screen_size), ("minimap_size", FLAGS.minimap_size),
-            ("step_mul", FLAGS.step_mul), ("steps", FLAGS.steps), ("repeats", FLAGS.repeats),
-            ("small_loop_bytes", FLAGS.small_loop_bytes), ("smax", FLAGS.smax)))
     results, smax, notes = [], [], [note] if note else []
     for done, (n, groups) in enumerate(plans, 1):
         steps = steps_per_call(n, FLAGS.steps)
@@ -346,7 +395,8 @@ def main(argv: Sequence[str]) -> None:
             if with_smax:
                 for devices in {len(d): d for _, d in group}.values():
                     programs.append(smax_program(n, FLAGS.step_mul, steps, devices))
-            timed = time_round_robin(programs, FLAGS.repeats)
+            timed = [r._replace(threads=threads[0])
+                     for r in time_round_robin(programs, FLAGS.repeats)]
             del programs  # Frees this group's buffers before the next.
             references = {r.devices: r for r in timed if r.name.startswith("SMAX")}
             for r in timed:
@@ -366,6 +416,55 @@ def main(argv: Sequence[str]) -> None:
                            "\n\n".join(notes + [progress] if progress else notes))
         if FLAGS.output:  # After each count, so that a run cut short keeps what it measured.
             write_section(FLAGS.output, section)
+        if FLAGS.results_json:
+            _write_json(FLAGS.results_json, {"results": results, "smax": smax,
+                                             "notes": notes, "machine": before})
+    print(section)
+
+
+THREAD_VARIABLES = ("PJRT_NPROC", "NPROC")
+"""The environment variables XLA:CPU sizes its thread pool by, the first set winning."""
+
+
+def _write_json(path: str, data: dict) -> None:
+    """Writes the results (`Result`s as dicts) to `path` atomically."""
+    data = {k: [r.to_json() for r in v] if k in ("results", "smax") else v
+            for k, v in data.items()}
+    with tempfile.NamedTemporaryFile("w", dir=os.path.dirname(os.path.abspath(path)),
+                                     delete=False) as f:
+        json.dump(data, f)
+    os.replace(f.name, path)
+
+
+def _each_thread_count(threads: Sequence[int], settings, command: str) -> None:
+    """Runs the measurements of each thread-pool size in a process of its own (XLA sizes
+    the pool when JAX starts) and writes their results as one section."""
+    results, smax, notes, machines = [], [], [], []
+    with tempfile.TemporaryDirectory() as tmp:
+        for done, count in enumerate(threads, 1):
+            path = os.path.join(tmp, f"threads{count}.json")
+            args = [f"--{k}={v}" for k, v in settings] + [
+                f"--threads={count}", f"--results_json={path}"]
+            logging.info("Thread-pool size %s: %s", count or "XLA default", " ".join(args))
+            subprocess.run([sys.executable, "-m", "sc2jax.experiments.benchmark", *args],
+                           check=True, stdout=subprocess.DEVNULL)
+            with open(path) as f:
+                data = json.load(f)
+            results += [Result.from_json(r) for r in data["results"]]
+            smax += [Result.from_json(r) for r in data["smax"]]
+            notes += [n for n in data["notes"] if n not in notes]
+            machines.append(data["machine"])
+            counts = [int(n) for n in FLAGS.num_envs]
+            results.sort(key=lambda r: (FLAGS.maps.index(r.name), counts.index(r.num_envs),
+                                        r.devices, threads.index(r.threads)))
+            smax.sort(key=lambda r: (counts.index(r.num_envs), r.devices,
+                                     threads.index(r.threads)))
+            progress = [] if done == len(threads) else [
+                f"Partial: {done} of {len(threads)} thread-pool sizes measured so far."]
+            section = markdown(results, smax, command, machines[0], machines[-1],
+                               "\n\n".join(notes + progress))
+            if FLAGS.output:
+                write_section(FLAGS.output, section)
     print(section)
 
 
