@@ -19,9 +19,10 @@ of 64² layers), they are timed in groups that do, each group with its own SMAX-
 On a CPU, XLA runs a program's kernels on a pool of threads, one per core unless the
 `PJRT_NPROC` environment variable says otherwise when JAX starts. Where an agent step is
 a few large kernels the pool's threads share them; where its game loops are one kernel
-(few environments, `--small_loop_bytes`) the second thread only takes small kernels from
-the first, and a process with one device and one thread ran FindAndDefeatZerglings at one
-environment 1.2-1.5x faster (docs/benchmarks.md). `--threads` lists the pool sizes to
+(few environments, `--small_loop_bytes`) the second thread only trades small kernels with
+the first: a process with one device and one thread ran FindAndDefeatZerglings at one
+environment 1.22x faster in the benchmark, 1.15-1.7x in processes side by side
+(docs/benchmarks.md). `--threads` lists the pool sizes to
 measure, each in its own process: 0 is XLA's default with every `--devices` count; n > 0
 times one-device runs in a process with one CPU device and n threads.
 
