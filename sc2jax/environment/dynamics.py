@@ -540,8 +540,6 @@ def _resolve_collisions(pos, alive, data, sized: bool = False):
     along = lambda d, tie: jnp.where(apart, d / dist, tie[:, None] - tie[None, :])  # noqa: E731
 
     fixed = lambda d, tie: (along(d, tie) * push * 2 ** PUSH_BITS).astype(jnp.int32)  # noqa: E731
-    # Both axes' pushes (truncated to fixed point) summed by one variadic reduce: one loop
-    # over the pairs, where two sums each recompute the pair's distance.
     totals = jax.lax.reduce((fixed(dx, tie_x), fixed(dy, tie_y)), (np.int32(0), np.int32(0)),
                             lambda a, b: (a[0] + b[0], a[1] + b[1]), (1,))
     return pos + jnp.stack(totals, axis=-1).astype(jnp.float32) * 2 ** -PUSH_BITS
