@@ -21,10 +21,10 @@ On a CPU, XLA runs a program's kernels on a pool of threads, one per core unless
 a few large kernels the pool's threads share them; where its game loops are one kernel
 (few environments, `--small_loop_bytes`) the second thread only trades small kernels with
 the first: a process with one device and one thread ran FindAndDefeatZerglings at one
-environment 1.22x faster in the benchmark, 1.15-1.7x in processes side by side
-(docs/benchmarks.md). `--threads` lists the pool sizes to
-measure, each in its own process: 0 is XLA's default with every `--devices` count; n > 0
-times one-device runs in a process with one CPU device and n threads.
+environment 1.18-1.33x faster in three runs of the benchmark, 1.15-1.7x in processes side
+by side (docs/benchmarks.md). `--threads` lists the pool sizes to measure, each in its
+own process: 0 is XLA's default with every `--devices` count; n > 0 times one-device runs
+in a process with one CPU device and n threads.
 
 Optionally (`--smax`), JaxMARL's SMAX (an optional, benchmark-only dependency:
 `pip install jaxmarl`) is measured the same way on its "3m" scenario, with random
