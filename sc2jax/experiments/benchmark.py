@@ -100,6 +100,8 @@ flags.DEFINE_string("results_json", None, "Also write the results as JSON here (
 
 SECTION = "## Simulator throughput"
 SMAX_SCENARIO = "3m"
+THREAD_VARIABLES = ("PJRT_NPROC", "NPROC")
+"""The environment variables XLA:CPU sizes its thread pool by, the first set winning."""
 
 
 class Result(NamedTuple):
@@ -421,10 +423,6 @@ def main(argv: Sequence[str]) -> None:
             _write_json(FLAGS.results_json, {"results": results, "smax": smax,
                                              "notes": notes, "machine": before})
     print(section)
-
-
-THREAD_VARIABLES = ("PJRT_NPROC", "NPROC")
-"""The environment variables XLA:CPU sizes its thread pool by, the first set winning."""
 
 
 def _write_json(path: str, data: dict) -> None:
