@@ -62,6 +62,7 @@ from sc2jax.environment.devices import (
     use_cpu_cores,
 )
 from sc2jax.environment.minigames import check_map
+from sc2jax.experiments.atomic import atomic_write
 from sc2jax.experiments.checks import non_negative_ints, positive_ints
 from sc2jax.experiments.machine import machine
 from sc2jax.experiments.markdown import write_section
@@ -337,7 +338,7 @@ def main(argv: Sequence[str]) -> None:
     command = "python -m sc2jax.experiments.benchmark " + " ".join(
         f"--{k}={v}" for k, v in settings + [("threads", ",".join(FLAGS.threads))])
     if len(threads) > 1:
-        _each_thread_count(threads, settings, command)
+        _each_thread_count(threads, counts, settings, command)
         return
     # The process's own pool, set before JAX starts its backends (`machine()` does).
     for variable in THREAD_VARIABLES:
@@ -429,16 +430,16 @@ def _write_json(path: str, data: dict) -> None:
     """Writes the results (`Result`s as dicts) to `path` atomically."""
     data = {k: [r.to_json() for r in v] if k in ("results", "smax") else v
             for k, v in data.items()}
-    with tempfile.NamedTemporaryFile("w", dir=os.path.dirname(os.path.abspath(path)),
-                                     delete=False) as f:
+    with atomic_write(path) as f:
         json.dump(data, f)
-    os.replace(f.name, path)
 
 
-def _each_thread_count(threads: Sequence[int], settings, command: str) -> None:
+def _each_thread_count(threads: Sequence[int], counts: Sequence[int], settings,
+                       command: str) -> None:
     """Runs the measurements of each thread-pool size in a process of its own (XLA sizes
     the pool when JAX starts) and writes their results as one section."""
     results, smax, notes, machines = [], [], [], []
+    order = lambda r: (counts.index(r.num_envs), r.devices, threads.index(r.threads))  # noqa: E731
     with tempfile.TemporaryDirectory() as tmp:
         for done, count in enumerate(threads, 1):
             path = os.path.join(tmp, f"threads{count}.json")
@@ -453,11 +454,8 @@ def _each_thread_count(threads: Sequence[int], settings, command: str) -> None:
             smax += [Result.from_json(r) for r in data["smax"]]
             notes += [n for n in data["notes"] if n not in notes]
             machines.append(data["machine"])
-            counts = [int(n) for n in FLAGS.num_envs]
-            results.sort(key=lambda r: (FLAGS.maps.index(r.name), counts.index(r.num_envs),
-                                        r.devices, threads.index(r.threads)))
-            smax.sort(key=lambda r: (counts.index(r.num_envs), r.devices,
-                                     threads.index(r.threads)))
+            results.sort(key=lambda r: (FLAGS.maps.index(r.name),) + order(r))
+            smax.sort(key=order)
             progress = [] if done == len(threads) else [
                 f"Partial: {done} of {len(threads)} thread-pool sizes measured so far."]
             section = markdown(results, smax, command, machines[0], machines[-1],
