@@ -501,15 +501,29 @@ def colliding(data):
 PUSH_BITS = 20
 
 
+def pair_width(n: int) -> int:
+    """The row length the collision push's [N, N] pairs are computed at: N up to 32
+    rounded up to a multiple of 8, larger N as it is.
+
+    XLA's CPU backend runs the pair loops in vectors of 8 and, for these short rows, is
+    far slower on a row of another length: the push of 28 units 1.7x slower than of
+    32, of 20 2.2x slower than of 24 (per environment, at 1 to 1,024 environments;
+    docs/benchmarks.md). Past 32 the rounding measured no better (68 -> 72 slower,
+    74 -> 80 faster), so it is not done.
+    """
+    return -(-n // 8) * 8 if 8 < n <= 32 else n
+
+
 def _resolve_collisions(pos, alive, data, sized: bool = False):
     """Pushes overlapping ground units apart; immobile ones (structures, resources) don't
     move. Items that do not collide (`colliding`) are ignored.
 
-    The x and y components are separate [N, N] arrays, summed over each row by one
-    variadic reduce: a reduction over an [N, N, 2] array is several times slower on XLA's
-    CPU backend, and two sums recompute each pair's distance (1.04x at one environment,
-    docs/benchmarks.md). Each push is at most both radii, so N of them sum within int32
-    for every map (checked).
+    The pairs are computed at `pair_width(N)`, the padding as units that do not collide
+    (they push nothing, and the sums are exact). The x and y components are separate
+    [N, N] arrays, summed over each row by one variadic reduce: a reduction over an
+    [N, N, 2] array is several times slower on XLA's CPU backend, and two sums
+    recompute each pair's distance (1.04x at one environment, docs/benchmarks.md). Each
+    push is at most both radii, so N of them sum within int32 for every map (checked).
 
     `sized` (static): the distances as `hypot`. XLA compiles `sqrt(dx * dx + dy * dy)`
     differently for N <= 32 (one loop fusion) than above, and its last bit can differ;
@@ -517,16 +531,20 @@ def _resolve_collisions(pos, alive, data, sized: bool = False):
     so only the maps run on several slot counts use it (docs/benchmarks.md).
     """
     n = len(pos)
-    most = n * 2 * float(UNIT_DATA.radius.max()) * 2 ** PUSH_BITS
+    width = pair_width(n)
+    most = width * 2 * float(UNIT_DATA.radius.max()) * 2 ** PUSH_BITS
     if most >= 2 ** 31:
         raise ValueError(f"{n} colliding slots can overflow the int32 push sums")
-    collides = alive & colliding(data)
-    mobile = data.speed > 0
-    dx = pos[:, None, 0] - pos[None, :, 0]
-    dy = pos[:, None, 1] - pos[None, :, 1]
+    pad = lambda x: jnp.pad(x, [(0, width - n)] + [(0, 0)] * (x.ndim - 1))  # noqa: E731
+    collides = pad(alive & colliding(data))
+    mobile = pad(data.speed > 0)
+    radius = pad(data.radius)
+    xy = pad(pos)
+    dx = xy[:, None, 0] - xy[None, :, 0]
+    dy = xy[:, None, 1] - xy[None, :, 1]
     dist = jnp.hypot(dx, dy) if sized else jnp.sqrt(dx * dx + dy * dy + 1e-12)
-    overlap = data.radius[:, None] + data.radius[None, :] - dist
-    pair = collides[:, None] & collides[None, :] & (overlap > 0) & ~jnp.eye(n, dtype=bool)
+    overlap = radius[:, None] + radius[None, :] - dist
+    pair = collides[:, None] & collides[None, :] & (overlap > 0) & ~jnp.eye(width, dtype=bool)
     # Share of the overlap i gives way: half between two mobile units, all against a wall.
     share = jnp.where(mobile[None, :], 0.5, 1.0) * mobile[:, None]
     push = jnp.where(pair, overlap * share, 0.0)
@@ -534,7 +552,7 @@ def _resolve_collisions(pos, alive, data, sized: bool = False):
     # constants of the compiled program: computed in it, XLA hoists them out of the game
     # loop but still evaluates N cosines and sines (library calls) per agent step.
     with jax.ensure_compile_time_eval():
-        angle = jnp.arange(n) * 2.4
+        angle = jnp.arange(width) * 2.4
         tie_x, tie_y = jnp.cos(angle), jnp.sin(angle)
     apart = dist > 1e-4
     along = lambda d, tie: jnp.where(apart, d / dist, tie[:, None] - tie[None, :])  # noqa: E731
@@ -542,4 +560,5 @@ def _resolve_collisions(pos, alive, data, sized: bool = False):
     fixed = lambda d, tie: (along(d, tie) * push * 2 ** PUSH_BITS).astype(jnp.int32)  # noqa: E731
     totals = jax.lax.reduce((fixed(dx, tie_x), fixed(dy, tie_y)), (np.int32(0), np.int32(0)),
                             lambda a, b: (a[0] + b[0], a[1] + b[1]), (1,))
+    totals = [total[:n] for total in totals]
     return pos + jnp.stack(totals, axis=-1).astype(jnp.float32) * 2 ** -PUSH_BITS
