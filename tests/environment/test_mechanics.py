@@ -18,6 +18,7 @@ centres so that clicks and unit lists land on known pixels.
 """
 
 import functools
+from unittest import mock
 
 import dm_env
 import jax
@@ -25,7 +26,7 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 
-from sc2jax.environment import FUNCTIONS, ActionResult, FeatureUnit, make, to_dense
+from sc2jax.environment import FUNCTIONS, ActionResult, FeatureUnit, dynamics, make, to_dense
 from sc2jax.environment.agents import random_action
 from sc2jax.environment.dynamics import LoopEvents, colliding, game_loop
 from sc2jax.environment.minigames import get_map
@@ -895,6 +896,27 @@ def test_collisions_among_the_collider_slots_are_all_the_collisions(map_name):
     np.testing.assert_array_equal(cut.pos, full.pos)
     if c > 1:  # The stacked units were pushed apart.
         assert not np.array_equal(full.pos, one.pos)
+
+
+@pytest.mark.parametrize("n", [9, 20, 28])
+def test_collision_pushes_on_padded_rows_are_the_unpadded_pushes(n):
+    # `pair_width` pads the pairs' rows with units that do not collide: the same pushes,
+    # bit for bit, and a real padding at these counts.
+    assert dynamics.pair_width(n) > n
+    rng = np.random.default_rng(n)
+    types = np.where(rng.random(n) < 0.3, int(UnitType.MARINE), int(UnitType.ZERGLING))
+    data = jax.tree.map(lambda col: jnp.asarray(col)[types], UNIT_DATA)
+    pos = jnp.asarray(rng.uniform(0.0, 3.0, (n, 2)), jnp.float32)
+    pos = pos.at[1].set(pos[0])  # Two coincident units separate along their tie.
+    pos = pos.at[2].set(jnp.array([0.1, 0.2]))  # Over the padding, which sits at (0, 0).
+    alive = jnp.asarray(rng.random(n) < 0.9).at[2].set(True)
+    # A fresh function for each trace (jit caches traces by function).
+    push = lambda: jax.jit(lambda *a: dynamics._resolve_collisions(*a))(pos, alive, data)  # noqa: E731
+    padded = push()
+    with mock.patch.object(dynamics, "pair_width", lambda n: n):
+        unpadded = push()
+    np.testing.assert_array_equal(padded, unpadded)
+    assert not np.array_equal(padded, pos)
 
 
 def test_fog_looks_through_the_own_slots_alone():
