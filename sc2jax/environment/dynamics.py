@@ -22,7 +22,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from sc2jax.environment import harvest, threefry
-from sc2jax.environment.fusion import mask_once
+from sc2jax.environment.fusion import first_argmin, mask_once
 from sc2jax.environment.geometry import distances, squared_length
 from sc2jax.environment.state import (
     NO_TARGET,
@@ -215,7 +215,7 @@ def _select_targets(units: Units, data, block: PairBlock):
     keep = (scans & (current >= first) & (current < first + num_cols) & enemy[rows, local]
             & (current_gap <= keep_range) & ~(other_in_range & (current_gap > data.range)))
     candidate = enemy & (gap <= scan[:, None])
-    nearest = first + jnp.argmin(jnp.where(candidate, gap, jnp.inf), axis=1)
+    nearest = first + first_argmin(jnp.where(candidate, gap, jnp.inf))
     acquired = jnp.where(keep, current, jnp.where(candidate.any(axis=1), nearest, NO_TARGET))
     auto = jnp.where(scans, acquired, NO_TARGET)
     ordered = units.order_unit[:, 0]

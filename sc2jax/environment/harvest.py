@@ -27,6 +27,7 @@ from __future__ import annotations
 
 import jax.numpy as jnp
 
+from sc2jax.environment.fusion import first_argmin
 from sc2jax.environment.geometry import distances
 from sc2jax.environment.lazy import lazy_where
 from sc2jax.environment.state import (
@@ -93,7 +94,7 @@ def _nearest_of(units: Units, slots, eps):
     depot = (slots < n) & units.complete[at] & (units.type[at] == UnitType.COMMAND_CENTER)
     mine = depot[None, :] & (units.owner[:, None] == units.owner[at][None, :])
     dist = distances(units.pos, units.pos[at], eps)
-    nearest = at[jnp.argmin(jnp.where(mine, dist, jnp.inf), axis=1)].astype(jnp.int32)
+    nearest = at[first_argmin(jnp.where(mine, dist, jnp.inf))].astype(jnp.int32)
     return jnp.where(mine.any(axis=1), nearest, NO_TARGET)
 
 
@@ -157,7 +158,7 @@ def _spread(units: Units, field, blocked, contents, field_slots):
     dist = distances(units.pos[field], leading_slots(units.pos, field_slots))
     near = fields[None, :] & (dist <= SPREAD_RADIUS)
     cost = jnp.where(near, assigned[None, :] * 1000.0 + dist, jnp.inf)
-    best = jnp.argmin(cost, axis=1).astype(jnp.int32)
+    best = first_argmin(cost)
     first = jnp.min(jnp.where(targeted_by(field, f) & blocked[:, None], rows[:, None], n),
                     axis=0)
     own = jnp.clip(field, 0, f - 1)

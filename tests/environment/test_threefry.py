@@ -1,5 +1,5 @@
 """`threefry.split`, `threefry.bits` and `threefry.randint` are `jax.random`'s draws, jitted
-and vmapped; and `fusion.mask_once` is its mask."""
+and vmapped; `fusion.mask_once` is its mask, and `fusion.first_argmin` is `jnp.argmin`."""
 
 import jax
 import jax.numpy as jnp
@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from sc2jax.environment import threefry
-from sc2jax.environment.fusion import mask_once
+from sc2jax.environment.fusion import first_argmin, mask_once
 
 KEYS = [jax.random.PRNGKey(0), jax.random.PRNGKey(2 ** 31 - 1),
         jax.random.split(jax.random.PRNGKey(7))[1], jnp.array([0xFFFFFFFF, 0x12345678], jnp.uint32)]
@@ -59,3 +59,15 @@ def test_mask_once_is_the_mask():
     mask = jnp.array([[True, False, True], [False, False, True]])
     np.testing.assert_array_equal(jax.jit(mask_once)(mask), mask)
     assert mask_once(mask).dtype == jnp.bool_
+
+
+@pytest.mark.parametrize("columns", [3, 8, 25])
+def test_first_argmin_is_argmin(columns):
+    # Ties (values on a coarse grid) take the first index; rows of inf only take 0.
+    rng = np.random.default_rng(columns)
+    x = np.floor(rng.uniform(0, 4, (6, 5, columns))).astype(np.float32)
+    x[0, 0] = np.inf
+    x[1, 2, ::2] = np.inf
+    got = jax.jit(jax.vmap(first_argmin))(x)
+    np.testing.assert_array_equal(got, np.argmin(x, axis=-1))
+    assert got.dtype == jnp.int32
