@@ -53,6 +53,8 @@ class LoopEvents(NamedTuple):
       vespene: float32 scalar, vespene the player's workers deposited.
       created: bool[N] slots where a unit was trained or a structure placed (filled in
         by `production.production_loop`; all False from `game_loop`).
+      heading: float32[N, 2] the way each unit turned to this loop (its movement, or
+        the target it attacks), (0, 0) where it did not turn (`facing_of`).
     """
 
     died: jax.Array
@@ -61,6 +63,7 @@ class LoopEvents(NamedTuple):
     minerals: jax.Array
     vespene: jax.Array
     created: jax.Array
+    heading: jax.Array
 
     @classmethod
     def none(cls, num_slots: int, died=None) -> LoopEvents:
@@ -68,7 +71,20 @@ class LoopEvents(NamedTuple):
         nothing = jnp.zeros(num_slots, bool)
         zero = jnp.float32(0)
         return cls(died=nothing if died is None else jnp.asarray(died), damage_dealt=zero,
-                   damage_taken=zero, minerals=zero, vespene=zero, created=nothing)
+                   damage_taken=zero, minerals=zero, vespene=zero, created=nothing,
+                   heading=jnp.zeros((num_slots, 2), jnp.float32))
+
+
+def facing_of(heading, facing):
+    """float32[N]: the facing (radians) of the units that turned to `heading`
+    (float32[N, 2], (0, 0) for those that did not, `LoopEvents.heading`), else `facing`.
+
+    An arctangent per unit, which XLA's CPU backend does not vectorise (10 ns each):
+    `Simulator` sets facing once per agent step from each unit's last turn, not in every
+    game loop (`game_loop(face=False)`).
+    """
+    turned = jnp.any(heading != 0, axis=-1)
+    return jnp.where(turned, jnp.arctan2(heading[:, 1], heading[:, 0]), facing)
 
 
 def _data(types):
@@ -227,7 +243,7 @@ def game_loop(units: Units, key, playable, bursts: bool = False, workers: bool =
               field_slots: int | None = None,
               team_split: int | None = None,
               jitter_slots: int | None = None,
-              sized: bool = False) -> tuple[Units, LoopEvents]:
+              sized: bool = False, face: bool = True) -> tuple[Units, LoopEvents]:
     """Advances all units by one game loop.
 
     Args:
@@ -252,6 +268,8 @@ def game_loop(units: Units, key, playable, bursts: bool = False, workers: bool =
       sized: (static) whether the map runs on several slot counts (`MiniGame.slot_sizes`):
         the collision distances then use `hypot`, whose last bit XLA computes alike for
         every count (`_resolve_collisions`).
+      face: (static) set the units' facing; False leaves it, for a caller that sets it
+        from the events' `heading` after several loops (`facing_of`).
 
     Returns:
       The new units and the loop's events.
@@ -327,8 +345,8 @@ def game_loop(units: Units, key, playable, bursts: bool = False, workers: bool =
     moved = new_pos - pos
     to_target = pos[safe_target] - pos
     face_vec = jnp.where(in_range[:, None], to_target, moved)
-    turns = squared_length(face_vec) > 1e-10
-    facing = jnp.where(turns, jnp.arctan2(face_vec[:, 1], face_vec[:, 0]), units.facing)
+    heading = jnp.where((squared_length(face_vec) > 1e-10)[:, None], face_vec, 0.0)
+    facing = facing_of(heading, units.facing) if face else units.facing
 
     # Attacks: instant hits, summed by target. `cooldown` is the loops left
     # before the weapon is ready at the start of this loop; a weapon fires once that is
@@ -408,7 +426,7 @@ def game_loop(units: Units, key, playable, bursts: bool = False, workers: bool =
         damage_taken=jnp.sum(jnp.where(own, damage, 0.0)),
         minerals=jnp.sum(jnp.where(own, minerals, 0.0)),
         vespene=jnp.sum(jnp.where(own, vespene, 0.0)),
-        created=jnp.zeros(n, bool))
+        created=jnp.zeros(n, bool), heading=heading)
 
     units = units.replace(
         pos=new_pos, facing=facing, cooldown=jnp.where(alive, cooldown, 0.0),

@@ -24,7 +24,7 @@ from sc2jax.environment import production, score, specs, threefry
 from sc2jax.environment.actions import apply_action
 from sc2jax.environment.availability import CARD_TABLE
 from sc2jax.environment.dense import DenseAction, check_dense_action
-from sc2jax.environment.dynamics import game_loop
+from sc2jax.environment.dynamics import facing_of, game_loop
 from sc2jax.environment.fusion import set_static
 from sc2jax.environment.lazy import lazy_where, smallest_fit
 from sc2jax.environment.minigames import get_map
@@ -274,7 +274,8 @@ class Simulator:
         game = self.game
         buildable = jnp.asarray(game.geometry.buildable)
 
-        def one_loop(state: EnvState, _):
+        def one_loop(carry, _):
+            state, heading = carry
             running = state.outcome == Outcome.RUNNING
             key, loop_key = threefry.split(state.key)
             units, events = game_loop(state.units, loop_key, game.geometry.playable,
@@ -284,7 +285,7 @@ class Simulator:
                                       field_slots=game.field_slots,
                                       team_split=game.team_split,
                                       jitter_slots=game.num_slots,
-                                      sized=game.slot_sizes is not None)
+                                      sized=game.slot_sizes is not None, face=False)
             minerals = state.minerals + events.minerals.astype(jnp.int32)
             next_tag, spent = state.next_tag, jnp.int32(0)
             if game.has_production:
@@ -305,13 +306,21 @@ class Simulator:
             new = new.replace(outcome=jnp.where(timer, int(Outcome.VICTORY), new.outcome))
             frozen = state.replace(game_loop=state.game_loop + 1)
             new = jax.tree_util.tree_map(lambda a, b: jnp.where(running, a, b), new, frozen)
-            return new, new.units.alive[-1]
+            # Each unit's last turn; a slot whose unit was replaced (a new tag) starts
+            # afresh. Facing is set from it after the loops (`dynamics.facing_of`).
+            turned = running & jnp.any(events.heading != 0, axis=-1)
+            heading = jnp.where(turned[:, None], events.heading, heading)
+            heading = jnp.where((new.units.tag == state.units.tag)[:, None], heading, 0.0)
+            return (new, heading), new.units.alive[-1]
 
         def loops(state: EnvState):
             """The game loops, and whether the units' last slot stayed free unless it
             was in use from the start (`_on_leading_slots`)."""
             start = state.units.alive[-1]
-            state, last = jax.lax.scan(one_loop, state, None, length=self.step_mul)
+            (state, heading), last = jax.lax.scan(
+                one_loop, (state, jnp.zeros_like(state.units.pos)), None, length=self.step_mul)
+            units = state.units
+            state = state.replace(units=units.replace(facing=facing_of(heading, units.facing)))
             return state, ~jnp.any(last) | start
 
         sizes = self.game.slot_sizes if self.use_slot_sizes else None

@@ -202,6 +202,26 @@ def test_marine_moves_at_its_speed_and_the_order_finishes():
     np.testing.assert_allclose(pos(state, 0), GOAL, atol=1e-5)
 
 
+def test_units_face_their_movement_and_their_target():
+    # Facing is set once per agent step, from each unit's last turn in its loops.
+    step, state = move_scene()
+    state, _ = act(step, state, FUNCTIONS.Move_screen("now", (20, 4)))
+    start = pos(state, 0)
+    state, _ = no_op(step, state)
+    dx, dy = pos(state, 0) - start
+    assert dy > 0.5
+    np.testing.assert_allclose(float(state.units.facing[0]), np.arctan2(dy, dx), atol=1e-6)
+    assert float(state.units.facing[4]) == np.float32(DEFAULT_FACING)  # Held: never turned.
+    # An idle marine turns to the zergling it shoots (in range, to its upper left).
+    step, state = scene([
+        (0, UnitType.MARINE, Owner.SELF, (30.0, 28.0), False),
+        (4, UnitType.ZERGLING, Owner.ENEMY, (27.0, 31.0), False),
+    ])
+    state, _ = no_op(step, set_unit(state, 4, order=(Order.HOLD, (27.0, 31.0))))
+    assert float(state.units.health[4]) < UNIT_DATA.max_health[UnitType.ZERGLING]
+    np.testing.assert_allclose(float(state.units.facing[0]), 3 * np.pi / 4, atol=1e-6)
+
+
 def test_queued_move_runs_after_the_first():
     step, state = move_scene()
     # A: pixel (17, 11) = (33.125, 28.375), 2.75 right of the start. B: pixel (17, 7) =
