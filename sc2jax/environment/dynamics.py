@@ -523,9 +523,9 @@ def pair_width(n: int) -> int:
     """The row length the collision push's [N, N] pairs are computed at: N up to 32
     rounded up to a multiple of 8, larger N as it is.
 
-    XLA's CPU backend runs the pair loops in vectors of 8 and, for these short rows, is
-    far slower on a row of another length: the push of 28 units 1.7x slower than of
-    32, of 20 2.2x slower than of 24 (per environment, at 1 to 1,024 environments;
+    XLA's CPU backend is far slower on short rows whose length is not a multiple of 8
+    (it vectorises the innermost loop): the push of 28 units took 1.7x as long as of
+    32, of 20 2.2x as long as of 24 (per environment, at 1 to 1,024 environments;
     docs/benchmarks.md). Past 32 the rounding measured no better (68 -> 72 slower,
     74 -> 80 faster), so it is not done.
     """
