@@ -416,10 +416,7 @@ def main(argv: Sequence[str]) -> None:
                                     r.devices))
         progress = "" if done == len(plans) else (
             f"Partial: {done} of {len(plans)} environment counts measured so far.")
-        section = markdown(results, smax, command, before, machine(),
-                           "\n\n".join(notes + [progress] if progress else notes))
-        if FLAGS.output:  # After each count, so that a run cut short keeps what it measured.
-            write_section(FLAGS.output, section)
+        section = _section(results, smax, command, before, machine(), notes, progress)
         if FLAGS.results_json:
             _write_json(FLAGS.results_json, {"results": results, "smax": smax,
                                              "notes": notes, "machine": before})
@@ -456,13 +453,22 @@ def _each_thread_count(threads: Sequence[int], counts: Sequence[int], settings,
             machines.append(data["machine"])
             results.sort(key=lambda r: (FLAGS.maps.index(r.name),) + order(r))
             smax.sort(key=order)
-            progress = [] if done == len(threads) else [
-                f"Partial: {done} of {len(threads)} thread-pool sizes measured so far."]
-            section = markdown(results, smax, command, machines[0], machines[-1],
-                               "\n\n".join(notes + progress))
-            if FLAGS.output:
-                write_section(FLAGS.output, section)
+            progress = "" if done == len(threads) else (
+                f"Partial: {done} of {len(threads)} thread-pool sizes measured so far.")
+            section = _section(results, smax, command, machines[0], machines[-1], notes,
+                               progress)
     print(section)
+
+
+def _section(results, smax, command: str, before: str, after: str, notes: list,
+             progress: str) -> str:
+    """The results so far as a markdown section, also written into `--output` (after each
+    part of a run, so that a run cut short keeps what it measured)."""
+    section = markdown(results, smax, command, before, after,
+                       "\n\n".join(notes + [progress] if progress else notes))
+    if FLAGS.output:
+        write_section(FLAGS.output, section)
+    return section
 
 
 if __name__ == "__main__":
