@@ -4,6 +4,7 @@ import jax
 import numpy as np
 
 from sc2jax.environment.agents import random_action
+from sc2jax.environment.agents.random_agent import kth_true
 from sc2jax.environment.arguments import resolve_types
 
 SAMPLES = 4000
@@ -54,3 +55,13 @@ def test_typed_and_raw_keys_draw_the_same_action():
         typed = jax.device_get(random_action(jax.random.key(seed), available, types))
         for a, b in zip(raw, typed):
             np.testing.assert_array_equal(a, b)
+
+
+def test_kth_true_finds_each_true_entry_in_order():
+    rng = np.random.default_rng(0)
+    masks = [rng.uniform(size=573) < p for p in (0.003, 0.05, 0.5, 0.97)]
+    masks += [np.ones(573, bool), np.eye(573, dtype=bool)[0], np.eye(573, dtype=bool)[572]]
+    find = jax.jit(jax.vmap(kth_true, in_axes=(None, 0)))
+    for mask in masks:
+        want = np.flatnonzero(mask)
+        np.testing.assert_array_equal(find(mask, np.arange(len(want))), want)
