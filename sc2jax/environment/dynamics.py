@@ -75,6 +75,12 @@ class LoopEvents(NamedTuple):
                    heading=jnp.zeros((num_slots, 2), jnp.float32))
 
 
+def turned(heading):
+    """bool[N]: the units that turned, by their float32[N, 2] `heading` (`LoopEvents`):
+    (0, 0) is no turn."""
+    return jnp.any(heading != 0, axis=-1)
+
+
 def facing_of(heading, facing):
     """float32[N]: the facing (radians) of the units that turned to `heading`
     (float32[N, 2], (0, 0) for those that did not, `LoopEvents.heading`), else `facing`.
@@ -83,8 +89,7 @@ def facing_of(heading, facing):
     `Simulator` sets facing once per agent step from each unit's last turn, not in every
     game loop (`game_loop(face=False)`).
     """
-    turned = jnp.any(heading != 0, axis=-1)
-    return jnp.where(turned, jnp.arctan2(heading[:, 1], heading[:, 0]), facing)
+    return jnp.where(turned(heading), jnp.arctan2(heading[:, 1], heading[:, 0]), facing)
 
 
 def _data(types):

@@ -24,7 +24,7 @@ from sc2jax.environment import production, score, specs, threefry
 from sc2jax.environment.actions import apply_action
 from sc2jax.environment.availability import CARD_TABLE
 from sc2jax.environment.dense import DenseAction, check_dense_action
-from sc2jax.environment.dynamics import facing_of, game_loop
+from sc2jax.environment.dynamics import facing_of, game_loop, turned
 from sc2jax.environment.fusion import set_static
 from sc2jax.environment.lazy import lazy_where, smallest_fit
 from sc2jax.environment.minigames import get_map
@@ -308,8 +308,8 @@ class Simulator:
             new = jax.tree_util.tree_map(lambda a, b: jnp.where(running, a, b), new, frozen)
             # Each unit's last turn; a slot whose unit was replaced (a new tag) starts
             # afresh. Facing is set from it after the loops (`dynamics.facing_of`).
-            turned = running & jnp.any(events.heading != 0, axis=-1)
-            heading = jnp.where(turned[:, None], events.heading, heading)
+            turns = running & turned(events.heading)
+            heading = jnp.where(turns[:, None], events.heading, heading)
             heading = jnp.where((new.units.tag == state.units.tag)[:, None], heading, 0.0)
             return (new, heading), new.units.alive[-1]
 
