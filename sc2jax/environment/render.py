@@ -123,18 +123,25 @@ def paint(pixel_pos, pixel_radius, keys, shown, size, box: int, with_density: bo
               <= (pixel_radius * pixel_radius)[:, None, None]) | centre[None]
     in_bounds = ((py >= 0) & (py < h))[:, :, None] & ((px >= 0) & (px < w))[:, None, :]
     drawn = inside & in_bounds & shown[:, None, None]
-    # Pixels not drawn go to index h * w, past the canvas, and are dropped: a canvas of
-    # exactly h * w is its [H, W] plane without a copy (1.03x at 64 environments, 1.02x
-    # at one, against a spare last pixel cut off; docs/benchmarks.md).
-    index = jnp.where(drawn, py[:, :, None] * w + px[:, None, :], h * w).reshape(-1)
+    # One scatter paints every key, into the rows of one [K, h * w] canvas; pixels not
+    # drawn go past the row's end and are dropped. A zero canvas of its own per key would
+    # be one zero array copied per scatter (XLA merges equal zero arrays, and a scatter
+    # writes its operand in place); rows of exactly h * w are [H, W] planes without a
+    # copy (docs/benchmarks.md).
+    hw = h * w
+    index = jnp.where(drawn, py[:, :, None] * w + px[:, None, :], hw).reshape(-1)
     canvases = []
-    for key in keys:
-        values = jnp.broadcast_to(key[:, None, None], drawn.shape).reshape(-1)
-        canvases.append(jnp.zeros((h * w,), jnp.int32).at[index].max(values, mode="drop")
-                        .reshape(h, w))
+    if keys:
+        values = jnp.stack([jnp.broadcast_to(key[:, None, None], drawn.shape).reshape(-1)
+                            for key in keys])
+        canvas = jnp.zeros((len(keys), hw), jnp.int32).at[:, index].max(values, mode="drop")
+        canvases = list(canvas.reshape(len(keys), h, w))
     density = None
     if with_density:
-        density = jnp.zeros((h * w,), jnp.int32).at[index].add(1, mode="drop").reshape(h, w)
+        # Counted in float32 (exact to 2^24 units a pixel), so its zero canvas is not the
+        # int32 one of the keys.
+        density = (jnp.zeros((hw,), jnp.float32).at[index].add(1.0, mode="drop")
+                   .astype(jnp.int32).reshape(h, w))
     return canvases, density
 
 
