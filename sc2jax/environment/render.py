@@ -138,9 +138,10 @@ def paint(pixel_pos, pixel_radius, keys, shown, size, box: int, with_density: bo
         canvases = list(canvas.reshape(len(keys), h, w))
     density = None
     if with_density:
-        # Counted in float32 (exact to 2^24 units a pixel), so its zero canvas is not the
-        # int32 one of the keys.
-        density = (jnp.zeros((hw,), jnp.float32).at[index].add(1.0, mode="drop")
+        # Counted in int16 where N units cannot overflow it: half the bytes, and a zero
+        # canvas that is not the int32 one of the keys.
+        count = jnp.int16 if pixel_pos.shape[0] < 2 ** 15 else jnp.float32
+        density = (jnp.zeros((hw,), count).at[index].add(1, mode="drop")
                    .astype(jnp.int32).reshape(h, w))
     return canvases, density
 
