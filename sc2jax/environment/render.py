@@ -132,8 +132,10 @@ def paint(pixel_pos, pixel_radius, keys, shown, size, box: int, with_density: bo
     index = jnp.where(drawn, py[:, :, None] * w + px[:, None, :], hw).reshape(-1)
     canvases = []
     if keys:
-        values = jnp.stack([jnp.broadcast_to(key[:, None, None], drawn.shape).reshape(-1)
-                            for key in keys])
+        # The keys computed once per unit, not once per pixel of its window.
+        per_unit = materialize(jnp.stack(keys))
+        values = jnp.broadcast_to(per_unit[:, :, None, None],
+                                  (len(keys),) + drawn.shape).reshape(len(keys), -1)
         canvas = jnp.zeros((len(keys), hw), jnp.int32).at[:, index].max(values, mode="drop")
         canvases = list(canvas.reshape(len(keys), h, w))
     density = None
