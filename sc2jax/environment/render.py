@@ -95,7 +95,8 @@ def paint(pixel_pos, pixel_radius, keys, shown, size, box: int, with_density: bo
 
     A unit covers the pixels whose centres lie within its radius, and always the pixel
     holding its centre. Each unit is drawn inside a `box` x `box` window around its
-    centre pixel (box must cover the largest radius), with one scatter per key.
+    centre pixel (box must cover the largest radius): one scatter for all the keys, and
+    one for the density.
 
     Args:
       pixel_pos: float32[N, 2] continuous pixel coordinates (x, y) of unit centres.
@@ -140,9 +141,9 @@ def paint(pixel_pos, pixel_radius, keys, shown, size, box: int, with_density: bo
         canvases = list(canvas.reshape(len(keys), h, w))
     density = None
     if with_density:
-        # Counted in int16 where N units cannot overflow it: half the bytes, and a zero
-        # canvas that is not the int32 one of the keys.
-        count = jnp.int16 if pixel_pos.shape[0] < 2 ** 15 else jnp.float32
+        # Counted in int16 where the N units cannot overflow it: half the bytes, and a
+        # zero canvas of its own, not a copy of the keys' int32 one.
+        count = jnp.int16 if pixel_pos.shape[0] < 2 ** 15 else jnp.int32
         density = (jnp.zeros((hw,), count).at[index].add(1, mode="drop")
                    .astype(jnp.int32).reshape(h, w))
     return canvases, density
