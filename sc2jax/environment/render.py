@@ -109,7 +109,8 @@ def paint(pixel_pos, pixel_radius, keys, shown, size, box: int, with_density: bo
       with_density: also count the units covering each pixel.
 
     Returns:
-      (list of int32[H, W], one per key; density int32[H, W] or None).
+      (list of int32[H, W], one per key; density [H, W] or None: int16 for N < 2^15,
+      else int32).
     """
     w, h = size
     offsets = jnp.arange(box) - box // 2
@@ -144,8 +145,7 @@ def paint(pixel_pos, pixel_radius, keys, shown, size, box: int, with_density: bo
         # Counted in int16 where the N units cannot overflow it: half the bytes, and a
         # zero canvas of its own, not a copy of the keys' int32 one.
         count = jnp.int16 if pixel_pos.shape[0] < 2 ** 15 else jnp.int32
-        density = (jnp.zeros((hw,), count).at[index].add(1, mode="drop")
-                   .astype(jnp.int32).reshape(h, w))
+        density = jnp.zeros((hw,), count).at[index].add(1, mode="drop").reshape(h, w)
     return canvases, density
 
 
@@ -438,13 +438,15 @@ class Renderer:
         # Each plane is written once, and each layer picks its plane by a `where` chain:
         # a gather from the planes stacked on a layer axis makes XLA write the stack
         # and the layers with that axis first, and copy both to the batch-major layout.
-        written = [materialize(planes[p].astype(jnp.int32)) for p in order]
+        # (The density plane stays int16 until the cut reads it.)
+        written = [materialize(planes[p]) for p in order]
         source = np.asarray(source)
 
         def cut(lo: int, hi: int):  # int32[hi - lo, H, W]: layers lo..hi-1.
-            chosen = written[0][None]
+            chosen = written[0][None].astype(jnp.int32)
             for k in range(1, len(order)):
-                chosen = jnp.where(column(source[lo:hi] == k), written[k][None], chosen)
+                chosen = jnp.where(column(source[lo:hi] == k),
+                                   written[k][None].astype(jnp.int32), chosen)
             layers = jnp.right_shift(chosen, column(shift[lo:hi])) & column(mask[lo:hi])
             if any(m != 1 for m in multiplier[lo:hi]):
                 layers = jnp.minimum(layers * column(multiplier[lo:hi]), column(cap[lo:hi]))
