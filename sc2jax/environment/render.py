@@ -286,7 +286,8 @@ class Renderer:
       geometry: the map's static layout.
       fog: whether the map has fog of war (else the playable area is revealed).
       max_radius: the largest unit radius on the map, world units.
-      zero_layers: per-unit layers that are zero for every unit type on the map.
+      zero_layers: per-unit layers that are zero for every unit type on the map (map
+        layers that are zero everywhere are added to them).
       cheat_layers: fill the minimap `unit_type` layer (PySC2's `allow_cheating_layers`).
       own_slots: None, or the number of leading slots that can hold the player's units
         (`MiniGame.own_slots`): fog of war looks through those alone.
@@ -302,7 +303,10 @@ class Renderer:
         self.cheat_layers = cheat_layers
         self.camera = Camera(fmt.screen_size)
         self.minimap = Minimap(fmt.minimap_size, geometry.size)
-        self.zero_layers = frozenset(zero_layers)
+        # A map layer that is zero over the whole map (`height_map` on the flat maps) is
+        # zero in every view, however the camera moves: a zero layer too.
+        self.zero_layers = frozenset(zero_layers) | {
+            name for name in STATIC_TERRAIN if not np.any(getattr(geometry, name))}
         self.screen_box = box_size(max_radius * self.camera.pixels_per_unit)
         self.minimap_box = box_size(max_radius * self.minimap.pixels_per_unit)
 
@@ -422,7 +426,8 @@ class Renderer:
             elif name in DENSITY:
                 plane, bit, bits = "density", 0, 31
                 scale, top_value = DENSITY[name]
-            elif name in TERRAIN_PACKING and terrain is not None:
+            elif (name in TERRAIN_PACKING and terrain is not None
+                  and name not in self.zero_layers):
                 plane, (bit, bits), scale, top_value = "terrain", TERRAIN_PACKING[name], 1, None
             else:  # A layer that is zero on these maps.
                 plane, bit, bits, scale, top_value = None, 0, 0, 1, None
