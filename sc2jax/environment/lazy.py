@@ -41,7 +41,8 @@ Out = TypeVar("Out")
 FEW_LANES_DIVISOR = 32
 
 
-def lazy_where(pred, compute: Callable[[Any], Out], operand: Any, otherwise: Out) -> Out:
+def lazy_where(pred, compute: Callable[[Any], Out], operand: Any, otherwise: Out,
+               large_batches: str = "lazy") -> Out:
     """`compute(operand)` where `pred`, else `otherwise`, computing it only when used.
 
     Args:
@@ -51,10 +52,18 @@ def lazy_where(pred, compute: Callable[[Any], Out], operand: Any, otherwise: Out
         constants only): under `vmap` it is run on the batch.
       operand: a pytree of arrays, `compute`'s input.
       otherwise: the value where `pred` is False.
+      large_batches: under `vmap` of `FEW_LANES_DIVISOR` or more environments, "lazy"
+        (the two loops of the module docstring) or "always": `compute` run for the whole
+        batch and its result taken as it is, for a cheap `compute` that some environment
+        of a large batch needs on most calls (the loops then cost more than they save)
+        and that gives `otherwise` where `pred` is False.
 
     Returns:
       A pytree like `otherwise`.
     """
+
+    if large_batches not in ("lazy", "always"):
+        raise ValueError(f"large_batches must be 'lazy' or 'always', got {large_batches!r}")
 
     @jax.custom_batching.custom_vmap
     def select(pred, operand, otherwise):
@@ -70,14 +79,17 @@ def lazy_where(pred, compute: Callable[[Any], Out], operand: Any, otherwise: Out
         operand = jax.tree_util.tree_map(batched, operand, operand_batched)
         otherwise = jax.tree_util.tree_map(batched, otherwise, otherwise_batched)
 
-        lanes = axis_size // FEW_LANES_DIVISOR
-        if lanes < 1:  # A `cond`: a loop over the lanes measured 0.35x at one environment.
-            def every_lane():
-                fresh = jax.vmap(compute)(operand)
-                return jax.tree_util.tree_map(
-                    lambda a, b: jnp.where(pred.reshape((-1,) + (1,) * (a.ndim - 1)), a, b),
-                    fresh, otherwise)
+        def every_lane():
+            fresh = jax.vmap(compute)(operand)
+            return jax.tree_util.tree_map(
+                lambda a, b: jnp.where(pred.reshape((-1,) + (1,) * (a.ndim - 1)), a, b),
+                fresh, otherwise)
 
+        lanes = axis_size // FEW_LANES_DIVISOR
+        if lanes >= 1 and large_batches == "always":
+            out = jax.vmap(compute)(operand)
+            return out, jax.tree_util.tree_map(lambda _: True, out)
+        if lanes < 1:  # A `cond`: a loop over the lanes measured 0.35x at one environment.
             out = jax.lax.cond(jnp.any(pred), every_lane, lambda: otherwise)
             return out, jax.tree_util.tree_map(lambda _: True, out)
 

@@ -84,6 +84,34 @@ def test_large_batches_equal_where_whether_few_or_many_take_the_branch(taken):
     assert names.count("while") == 2 and "cond" not in names
 
 
+def _compute_or_keep(operand):
+    """A `compute` that gives `otherwise` where its predicate is False (as
+    `large_batches="always"` asks): the operand's values, kept where not taken."""
+    take, fresh, kept = operand
+    return jnp.where(take, fresh, kept)
+
+
+@pytest.mark.parametrize("batch", [4, 64])
+def test_always_computes_large_batches_and_is_lazy_below(batch):
+    """`large_batches="always"`: at 64 environments `compute` runs for the whole batch
+    (no loop, no `cond`); at 4 a `cond` runs it only when some environment needs it."""
+    preds = jnp.arange(batch) % 3 == 0
+    fresh, kept = jnp.arange(batch, dtype=jnp.float32), -jnp.ones(batch)
+    fn = jax.vmap(lambda p, f, k: lazy_where(p, _compute_or_keep, (p, f, k), k,
+                                             large_batches="always"))
+    np.testing.assert_array_equal(jax.jit(fn)(preds, fresh, kept),
+                                  jnp.where(preds, fresh, kept))
+    jaxpr = str(jax.make_jaxpr(fn)(preds, fresh, kept))
+    assert "while" not in jaxpr
+    assert ("cond" in jaxpr) == (batch < FEW_LANES_DIVISOR)
+
+
+def test_rejects_an_unknown_large_batches_policy():
+    with pytest.raises(ValueError, match="large_batches.*'lazy' or 'always'.*'loops'"):
+        lazy_where(jnp.bool_(True), _compute, (jax.random.PRNGKey(0), 1.0), _otherwise(),
+                   large_batches="loops")
+
+
 SIZES = (4, 8, 16)
 
 

@@ -34,7 +34,7 @@ from sc2jax.environment.render import sight_grid
 from sc2jax.environment.state import DEFAULT_FACING, Order, Owner, Units
 from sc2jax.environment.units import UNIT_DATA, UnitType
 
-from .conftest import PARAMS, SMALL_MAKE, compiled, small_sim
+from .conftest import PARAMS, SMALL_MAKE, assert_trees_equal, compiled, small_sim
 
 # Every stepped scene is on FindAndDefeatZerglings (28 slots, free camera), so the file
 # compiles one map's step (shared with the other test files). The other two maps' scripts
@@ -242,6 +242,43 @@ def test_queued_move_runs_after_the_first():
     state, _ = no_op(step, state, 3)
     np.testing.assert_allclose(pos(state, 0), b, atol=1e-5)
     assert int(state.units.orders[0, 0]) == Order.NONE
+
+
+def _queued_units(key, num_slots):
+    """Units with random order queues: orders, targets, points and types."""
+    k1, k2, k3 = jax.random.split(key, 3)
+    units = Units.empty(num_slots)
+    shape = units.orders.shape
+    return units.replace(
+        alive=jnp.ones(num_slots, bool),
+        orders=jax.random.randint(k1, shape, 0, len(Order), jnp.int32),
+        order_unit=jax.random.randint(k2, shape, -1, num_slots, jnp.int32),
+        order_type=jax.random.randint(k2, shape, 0, 5, jnp.int32),
+        order_pos=jax.random.uniform(k3, shape + (2,), maxval=64.0),
+        pos=jax.random.uniform(k1, (num_slots, 2), maxval=64.0),
+        target=jnp.arange(num_slots, dtype=jnp.int32))
+
+
+@pytest.mark.parametrize("num_slots", [2, 28])
+@pytest.mark.parametrize("batch", [None, 4, 64])
+def test_pop_order_shifts_exactly_the_queues_of_units_done(num_slots, batch):
+    """`pop_order` skips its shift when no order ends (a `cond` unbatched and for small
+    batches, the shift always for large ones): the same as the shift every time, whether
+    no unit, some or every unit of an environment is done."""
+    envs = batch or 1
+    keys = jax.random.split(jax.random.PRNGKey(num_slots), envs)
+    units = jax.vmap(_queued_units, (0, None))(keys, num_slots)
+    done = jax.random.bernoulli(jax.random.PRNGKey(7), 0.3, (envs, num_slots))
+    done = done.at[0].set(False).at[-1].set(True) if envs > 1 else done
+    plain, lazy = jax.vmap(dynamics._shift_orders), dynamics.pop_order
+    if batch is None:
+        one = lambda tree: jax.tree_util.tree_map(lambda x: x[0], tree)  # noqa: E731
+        for d in (done, jnp.zeros_like(done)):
+            assert_trees_equal(jax.jit(lazy)(*one((units, d))), one(plain(units, d)))
+    else:
+        assert_trees_equal(jax.jit(jax.vmap(lazy))(units, done), plain(units, done))
+    np.testing.assert_array_equal(plain(units, done).orders[:, :, 0],
+                                  np.where(done, units.orders[:, :, 1], units.orders[:, :, 0]))
 
 
 def test_move_beyond_the_playable_area_stops_at_its_edge():
