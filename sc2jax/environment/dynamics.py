@@ -198,26 +198,32 @@ def _cooldown_jitter(key, size: int):
     return (threefry.bits(low, (size,)) & 3).astype(jnp.float32) - 1.0
 
 
-# The fewest unit slots whose order-queue shift `pop_order` skips when no order ends.
+# The fewest unit slots on which `pop_order` and the end of arrived orders are skipped
+# when no unit needs them.
 LAZY_POP_SLOTS = 8
 
 
-def pop_order(units: Units, done) -> Units:
-    """Advances the order queue of units where `done` (bool[N]) holds.
+def _unless_none(done, update, units: Units) -> Units:
+    """`update(units, done)` (bool[N] `done`), which leaves units where `done` is False as
+    they are: skipped when no unit is done, on maps of `LAZY_POP_SLOTS` or more slots.
 
-    Most game loops end no unit's order: on maps of `LAZY_POP_SLOTS` or more slots the
-    queue's shift then runs only where some unit's does (`lazy_where`: a `cond`
-    unbatched and under `vmap` of fewer than 32 environments; a larger batch has some
-    such unit on most loops, and shifts always: the shift leaves a unit whose order is
-    not done as it is). Side by side at one environment: FindAndDefeatZerglings 1.035x,
-    CollectMineralsAndGas 1.075x; at 16 environments FindAndDefeatZerglings 1.077x; on
-    MoveToBeacon's 2 slots the `cond` cost more than the shift (0.985x), so it has none
+    Most game loops end no unit's order. The skip is a `lazy_where`: a `cond` unbatched
+    and under `vmap` of fewer than 32 environments; a larger batch has some unit done on
+    most loops, and updates always. Side by side at one environment, the order queue's
+    pops: FindAndDefeatZerglings 1.035x, CollectMineralsAndGas 1.075x (1.077x at 16
+    environments); the end of arrived orders after them 1.034x more. On MoveToBeacon's
+    2 slots the `cond` cost more than the pop (0.985x), so it has none
     (docs/benchmarks.md).
     """
     if units.num_slots < LAZY_POP_SLOTS:
-        return _shift_orders(units, done)
-    return lazy_where(jnp.any(done), lambda args: _shift_orders(*args), (units, done), units,
+        return update(units, done)
+    return lazy_where(jnp.any(done), lambda args: update(*args), (units, done), units,
                       large_batches="always")
+
+
+def pop_order(units: Units, done) -> Units:
+    """Advances the order queue of units where `done` (bool[N]) holds."""
+    return _unless_none(done, _shift_orders, units)
 
 
 def _shift_orders(units: Units, done) -> Units:
@@ -517,12 +523,17 @@ def _damage_per_hit(data, target, target_data=None):
 
 def _complete_orders(units: Units, old_pos, step, goal_dist, has_target, moving) -> Units:
     """Ends move orders that arrived (or are blocked next to their goal); turns patrols."""
-    order = units.orders[:, 0]
     speed = _data(units.type).speed
     travelled = jnp.sqrt(squared_length(units.pos - old_pos))
     remaining = goal_dist - step
     blocked = moving & (travelled < STUCK_FRACTION * speed) & (goal_dist < BLOCKED_ARRIVAL)
     arrived = units.alive & ~has_target & ((moving & (remaining <= ARRIVAL)) | blocked)
+    return _unless_none(arrived, _end_arrived, units)
+
+
+def _end_arrived(units: Units, arrived) -> Units:
+    """Ends the move orders of units `arrived` (bool[N]) at their goal; turns patrols."""
+    order = units.orders[:, 0]
     walking_done = arrived & ((order == Order.MOVE) | (order == Order.ATTACK_MOVE))
     patrol_turn = mask_once(arrived & (order == Order.PATROL))
     units = units.replace(
@@ -531,7 +542,7 @@ def _complete_orders(units: Units, old_pos, step, goal_dist, has_target, moving)
             units.order_pos[:, 1:]], axis=1),
         patrol_origin=jnp.where(patrol_turn[:, None], units.order_pos[:, 0],
                                 units.patrol_origin))
-    return pop_order(units, walking_done)
+    return _shift_orders(units, walking_done)
 
 
 def colliding(data):
