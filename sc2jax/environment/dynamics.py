@@ -15,6 +15,7 @@ does for the mini-games:
 
 from __future__ import annotations
 
+import functools
 from typing import NamedTuple
 
 import jax
@@ -198,27 +199,34 @@ def _cooldown_jitter(key, size: int):
     return (threefry.bits(low, (size,)) & 3).astype(jnp.float32) - 1.0
 
 
-# The fewest unit slots on which `pop_order` and the end of arrived orders are skipped
-# when no unit needs them.
+# The fewest unit slots on which `_skip_unless` skips its computation when unneeded.
 LAZY_POP_SLOTS = 8
+
+
+def _skip_unless(pred, compute, operand, otherwise, num_slots: int):
+    """`compute(operand)`, which is `otherwise` where `pred` (bool scalar) is False:
+    skipped then, on maps of `LAZY_POP_SLOTS` or more slots.
+
+    Most game loops end no unit's order and see no unit fire. The skip is a
+    `lazy_where`: a `cond` unbatched and under `vmap` of fewer than 32 environments; a
+    larger batch needs `compute` on most loops, and computes it always. Side by side at
+    one environment (docs/benchmarks.md), the order queue's pops: FindAndDefeatZerglings
+    1.035x, CollectMineralsAndGas 1.075x; the end of arrived orders after them 1.034x
+    more; all three skips (with the strikes, `_strikes`) against none:
+    FindAndDefeatZerglings 1.137x, DefeatRoaches 1.082x, DefeatZerglingsAndBanelings
+    1.129x, the same at 64 environments. On MoveToBeacon's 2 slots the `cond` cost more
+    than the pop (0.985x), so small maps have none.
+    """
+    if num_slots < LAZY_POP_SLOTS:
+        return compute(operand)
+    return lazy_where(pred, compute, operand, otherwise, large_batches="always")
 
 
 def _unless_none(done, update, units: Units) -> Units:
     """`update(units, done)` (bool[N] `done`), which leaves units where `done` is False as
-    they are: skipped when no unit is done, on maps of `LAZY_POP_SLOTS` or more slots.
-
-    Most game loops end no unit's order. The skip is a `lazy_where`: a `cond` unbatched
-    and under `vmap` of fewer than 32 environments; a larger batch has some unit done on
-    most loops, and updates always. Side by side at one environment, the order queue's
-    pops: FindAndDefeatZerglings 1.035x, CollectMineralsAndGas 1.075x (1.077x at 16
-    environments); the end of arrived orders after them 1.034x more. On MoveToBeacon's
-    2 slots the `cond` cost more than the pop (0.985x), so it has none
-    (docs/benchmarks.md).
-    """
-    if units.num_slots < LAZY_POP_SLOTS:
-        return update(units, done)
-    return lazy_where(jnp.any(done), lambda args: update(*args), (units, done), units,
-                      large_batches="always")
+    they are, skipped when none is (`_skip_unless`)."""
+    return _skip_unless(jnp.any(done), lambda args: update(*args), (units, done), units,
+                        units.num_slots)
 
 
 def pop_order(units: Units, done) -> Units:
@@ -312,7 +320,6 @@ def game_loop(units: Units, key, playable, bursts: bool = False, workers: bool =
     data = _data(units.type)
     alive = units.alive
     pos = units.pos
-    rows = jnp.arange(n)
 
     if combat:  # Pair distances; maps without enemies need none.
         blocks = pair_blocks(units, data, team_split)
@@ -392,14 +399,15 @@ def game_loop(units: Units, key, playable, bursts: bool = False, workers: bool =
         fires = jnp.zeros(n, bool)
     single = fires & (data.burst <= 0) if bursts else fires
     hits = jnp.where(single, _damage_per_hit(data, safe_target), 0.0)
-    # Sums over each block's pairs, not scatters, so that the loop can be compiled whole
-    # (`devices.compile_small_loops_whole`); exact in any order, as damage comes in
-    # halves of hit points (at least 0.5 a hit). A row's column is only used where it
-    # fires or hits, and then its target is in that block's columns.
     if combat:
-        hit_by = [_hit_by(block, safe_target) for block in blocks]
-        damage = _cols(blocks, [_fold_rows(jnp.add, jnp.where(hit, hits[b.rows, None], 0.0))
-                                for b, hit in zip(blocks, hit_by)])
+        # Most loops no unit fires: no damage, and no unit is called to answer.
+        shapes = [b._replace(dist=None, gap=jax.ShapeDtypeStruct(b.gap.shape, b.gap.dtype),
+                             enemy=None) for b in blocks]
+        damage, attacker, called = _skip_unless(
+            jnp.any(fires), functools.partial(_strikes, shapes),
+            (units, data, fires, hits, safe_target),
+            (jnp.zeros(n, jnp.float32), jnp.full(n, -1, jnp.int32),
+             jnp.full(n, -1, jnp.int32)), n)
     else:
         damage = jnp.zeros(n, jnp.float32)
     # Volatile bursts: a unit that attacks with one dies, and one killed by this loop's
@@ -430,11 +438,6 @@ def game_loop(units: Units, key, playable, bursts: bool = False, workers: bool =
     # whose ally within its acquisition range was hit.
     new_target = target
     if combat:
-        attacker = _cols(blocks, [
-            _fold_rows(jnp.maximum, jnp.where(hit & fires[b.rows, None], rows[b.rows, None], -1))
-            for b, hit in zip(blocks, hit_by)])
-        called = _rows(blocks, lambda block: _called(units, data, block, fires, safe_target,
-                                                     attacker))
         answer = jnp.where(attacker >= 0, attacker, called)
         idle = units.orders[:, 0] == Order.NONE
         retaliate = idle & (answer >= 0) & (units.target < 0) & (data.damage > 0)
@@ -478,6 +481,37 @@ def _splash(data, block: PairBlock):
     columns = jnp.broadcast_to(jnp.arange(block.cols.start, block.cols.stop),
                                block.dist.shape)
     return jnp.where(reach, _damage_per_hit(slot_rows(data, block.rows), columns, data), 0.0)
+
+
+def _strikes(blocks: list[PairBlock], args):
+    """The loop's hits summed per target, and who answers them.
+
+    Sums over each block's pairs, not scatters, so that the loop can be compiled whole
+    (`devices.compile_small_loops_whole`); exact in any order, as damage comes in halves
+    of hit points (at least 0.5 a hit). A row's column is only used where it fires or
+    hits, and then its target is in that block's columns.
+
+    Args:
+      blocks: the loop's pair blocks; only their slot ranges and shapes are read.
+      args: (units, data, fires, hits, target): the units at the loop's start and their
+        stats; bool[N] which fire, float32[N] the damage each deals and int32[N] their
+        targets (clipped into the slots).
+
+    Returns:
+      float32[N] the damage each unit takes; int32[N] the highest slot that fires at
+      each, or -1; int32[N] the attacker of a hit ally each is called to answer
+      (`_called`), or -1.
+    """
+    units, data, fires, hits, target = args
+    rows = jnp.arange(units.num_slots)
+    hit_by = [_hit_by(block, target) for block in blocks]
+    damage = _cols(blocks, [_fold_rows(jnp.add, jnp.where(hit, hits[b.rows, None], 0.0))
+                            for b, hit in zip(blocks, hit_by)])
+    attacker = _cols(blocks, [
+        _fold_rows(jnp.maximum, jnp.where(hit & fires[b.rows, None], rows[b.rows, None], -1))
+        for b, hit in zip(blocks, hit_by)])
+    called = _rows(blocks, lambda block: _called(units, data, block, fires, target, attacker))
+    return damage, attacker, called
 
 
 def _called(units: Units, data, block: PairBlock, fires, target, attacker):
