@@ -200,12 +200,12 @@ def _cooldown_jitter(key, size: int):
 
 
 # The fewest unit slots on which `_skip_unless` skips its computation when unneeded.
-LAZY_POP_SLOTS = 8
+SKIP_SLOTS = 8
 
 
 def _skip_unless(pred, compute, operand, otherwise, num_slots: int):
     """`compute(operand)`, which is `otherwise` where `pred` (bool scalar) is False:
-    skipped then, on maps of `LAZY_POP_SLOTS` or more slots.
+    skipped then, on maps of `SKIP_SLOTS` or more slots.
 
     Most game loops end no unit's order and see no unit fire. The skip is a
     `lazy_where`: a `cond` unbatched and under `vmap` of fewer than 32 environments; a
@@ -217,7 +217,7 @@ def _skip_unless(pred, compute, operand, otherwise, num_slots: int):
     1.129x, the same at 64 environments. On MoveToBeacon's 2 slots the `cond` cost more
     than the pop (0.985x), so small maps have none.
     """
-    if num_slots < LAZY_POP_SLOTS:
+    if num_slots < SKIP_SLOTS:
         return compute(operand)
     return lazy_where(pred, compute, operand, otherwise, large_batches="always")
 
