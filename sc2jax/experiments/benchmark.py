@@ -5,7 +5,8 @@ non-spatial observation; written into the last one's buffers, where the layers t
 cannot change on the map, such as its zero layers, stay as they are: `Simulator.step`'s
 `previous`) and the random agent (SC2LE §4.4) picks its next action from the
 last observation's `available_actions`. The measured program is one jitted function that
-`lax.scan`s K steps of (random action -> vmapped `Simulator.step`) for `num_envs`
+`lax.scan`s K steps of (random action -> vmapped `Simulator.step`; at one environment
+unbatched, as a single environment runs: `per_env`) for `num_envs`
 environments, each with its own random key, split over D devices (`--devices`: each
 device scans its num_envs / D environments, `sc2jax.environment.devices`; on a CPU, one
 host device per core); compilation is excluded (two warm-up calls), each call is timed to
@@ -192,9 +193,32 @@ def time_round_robin(programs: Sequence[Program], repeats: int) -> list[Result]:
             for p, t in zip(programs, times)]
 
 
+def per_env(fn: Callable, num_envs: int, in_axes=0, out_axes=0) -> Callable:
+    """`jax.vmap(fn, in_axes, out_axes)` for `num_envs` environments; for one, `fn` run on
+    it unbatched (its environment axis taken off the arguments and put back on the
+    results), as a single environment (`environment.make(num_envs=None)`) runs.
+
+    Under a `vmap`, even of one environment, a `switch` computes every branch and selects
+    (`Simulator.step` applies an action by a switch over its kinds), and `lazy_where`
+    keeps a batch's bookkeeping; unbatched, only the branch taken runs. The same bits;
+    FindAndDefeatZerglings 1.080x at one environment (docs/benchmarks.md).
+    """
+    if num_envs != 1:
+        return jax.vmap(fn, in_axes=in_axes, out_axes=out_axes)
+
+    def one(*args):
+        ins = in_axes if isinstance(in_axes, tuple) else (in_axes,) * len(args)
+        args = [arg if axis is None else
+                jax.tree_util.tree_map(lambda x, a=axis: jnp.squeeze(x, a), arg)
+                for arg, axis in zip(args, ins)]
+        return jax.tree_util.tree_map(lambda x: jnp.expand_dims(x, out_axes), fn(*args))
+
+    return one
+
+
 def split_keys(keys, num: int):
     """`num` keys [num, B, 2] from each of B keys [B, 2] (one split per environment)."""
-    return jax.vmap(lambda key: threefry.split(key, num), out_axes=1)(keys)
+    return per_env(lambda key: threefry.split(key, num), len(keys), out_axes=1)(keys)
 
 
 def compiled_rollout(one_step: Callable, steps: int, devices: Sequence[jax.Device] | None):
@@ -221,9 +245,9 @@ def sc2jax_rollout(sim: Simulator, num_envs: int, steps: int,
       random agent's keys [B, 2]).
     """
     types = sim.fmt.types
-    act = jax.vmap(random_action, in_axes=(0, 0, None))
+    act = per_env(random_action, num_envs, in_axes=(0, 0, None))
     # The new observation is written into the last one (`Simulator.step`'s `previous`).
-    step = jax.vmap(lambda state, action, obs: sim.step(state, action, previous=obs))
+    step = per_env(lambda state, action, obs: sim.step(state, action, previous=obs), num_envs)
 
     def one_step(carry, _):
         state, timestep, keys = carry
@@ -265,12 +289,12 @@ def smax_rollout(num_envs: int, steps: int, step_mul: int,
         return {a: jax.random.categorical(k, jnp.where(available[a], 0.0, -jnp.inf))
                 for k, a in zip(keys, agents)}
 
-    step = jax.vmap(env.step)
+    step = per_env(env.step, num_envs)
 
     def one_step(carry, _):
         state, obs, keys = carry
         keys, action_keys, step_keys = split_keys(keys, 3)
-        actions = jax.vmap(act_one)(action_keys, state)
+        actions = per_env(act_one, num_envs)(action_keys, state)
         obs, state, _, _, _ = step(step_keys, state, actions)
         return (state, obs, keys), None
 
