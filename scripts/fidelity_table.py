@@ -11,8 +11,8 @@ import time
 
 from sc2jax.environment import MAPS, make
 from sc2jax.environment.agents import SCRIPTED_MAPS, required_format
-from sc2jax.experiments import evaluation
-from sc2jax.experiments.paper import TABLE1
+from sc2jax.experiments.reporting.paper import TABLE1
+from sc2jax.experiments.training import evaluation
 
 
 def main():

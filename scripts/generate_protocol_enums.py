@@ -1,4 +1,4 @@
-"""Writes sc2jax/environment/protocol_enums.py from s2clientprotocol's enums.
+"""Writes sc2jax/environment/interface/protocol_enums.py from s2clientprotocol's enums.
 
 Run: PROTOCOL_BUFFERS_PYTHON_IMPLEMENTATION=python python scripts/generate_protocol_enums.py
 (s2clientprotocol's generated modules need protobuf's pure-Python mode under protobuf >= 4.)

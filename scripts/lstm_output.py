@@ -18,8 +18,9 @@ import os
 import jax
 import jax.numpy as jnp
 
-from sc2jax.environment import FUNCTIONS, dense
-from sc2jax.experiments.trainer import build, restore_params, run_config
+from sc2jax.environment import FUNCTIONS
+from sc2jax.environment.interface import dense
+from sc2jax.experiments.training.trainer import build, restore_params, run_config
 
 EPISODES = 32
 

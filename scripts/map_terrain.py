@@ -24,7 +24,7 @@ import tempfile
 import mpyq
 import numpy as np
 
-from sc2jax.environment.install_maps import download_sdist, maps_from_sdist
+from sc2jax.environment.sc2api.install_maps import download_sdist, maps_from_sdist
 
 
 def _grid(data: bytes, size_at: int, dtype: str) -> np.ndarray:

@@ -22,9 +22,10 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from sc2jax.environment import FUNCTIONS, ObservationFormat, dense
-from sc2jax.environment.environments import simulator
-from sc2jax.environment.features import PlayerRelative
+from sc2jax.environment import FUNCTIONS, ObservationFormat
+from sc2jax.environment.engine.compiled import simulator
+from sc2jax.environment.interface import dense
+from sc2jax.environment.interface.features import PlayerRelative
 from sc2jax.networks.factory import make_network
 
 EPISODES = 8

@@ -15,11 +15,12 @@ on a shard's pixel, whose centre is up to 0.53 world units from the shard at 32Â
 import argparse
 import time
 
-from sc2jax.environment import environments, make
+from sc2jax.environment import make
+from sc2jax.environment import sc2_env as environments
 from sc2jax.environment.agents import required_format
-from sc2jax.environment.minigames import collect_mineral_shards
-from sc2jax.experiments import evaluation
-from sc2jax.experiments.paper import TABLE1
+from sc2jax.environment.engine.minigames import collect_mineral_shards
+from sc2jax.experiments.reporting.paper import TABLE1
+from sc2jax.experiments.training import evaluation
 
 MAP = "CollectMineralShards"
 

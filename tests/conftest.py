@@ -12,8 +12,8 @@
   ~40% off (8 map steps: 50 s -> 30 s of compiling; the suite: 466 s -> 337 s on a 2-core
   AMD EPYC VM). The programs compute the same operations (no fast-math either way), only
   slower, which costs the few long-running tests less than it saves.
-- Two host devices on the CPU, so that the tests of `sc2jax.environment.devices` can split
-  environments over them; every other program runs on the first, as with one.
+- Two host devices on the CPU, so that the tests of `sc2jax.environment.engine.xla.devices`
+  can split environments over them; every other program runs on the first, as with one.
 - The longest files first: xdist hands out whole files (`--dist loadfile`), by default
   those with the most tests first, so test_learning (one test, about 90 s) ran last
   while the other worker idled (548 s of wall time for about 460 s of work on each).

@@ -24,10 +24,10 @@ import jax.numpy as jnp
 import numpy as np
 from absl import app, flags
 
+from sc2jax.checks import check_known, check_positive_int, positive_ints
 from sc2jax.environment import ObservationFormat, observation_spec
-from sc2jax.environment.dense import DenseAction
-from sc2jax.experiments.checks import check_known, check_positive_int, positive_ints
-from sc2jax.experiments.markdown import write_section
+from sc2jax.environment.interface.dense import DenseAction
+from sc2jax.experiments.reporting.markdown import write_section
 from sc2jax.losses import Trajectory, make_actor_critic_loss
 from sc2jax.networks import NETWORKS, make_network
 

@@ -32,20 +32,21 @@ import jax
 import numpy as np
 from absl import app, flags, logging
 
-from sc2jax.environment import make, proto_observation
-from sc2jax.environment.controller import Controller
-from sc2jax.environment.functions import FUNCTIONS, FunctionCall
-from sc2jax.environment.game_env import GameEnv, GameEnvBatch
-from sc2jax.environment.install_layout import write_sc2path
-from sc2jax.environment.launcher import launch
-from sc2jax.environment.minigames import check_map
-from sc2jax.environment.observation import api_units
-from sc2jax.environment.protos import runtime, sc2api
-from sc2jax.experiments import trainer
-from sc2jax.experiments.config import TrainConfig
-from sc2jax.experiments.host_actor import HostActor
-from sc2jax.experiments.machine import machine
-from sc2jax.experiments.markdown import write_section
+from sc2jax.environment import make
+from sc2jax.environment.engine.minigames import check_map
+from sc2jax.environment.engine.observation import api_units
+from sc2jax.environment.interface.functions import FUNCTIONS, FunctionCall
+from sc2jax.environment.sc2api import proto_observation
+from sc2jax.environment.sc2api.controller import Controller
+from sc2jax.environment.sc2api.game_env import GameEnv, GameEnvBatch
+from sc2jax.environment.sc2api.launcher import launch
+from sc2jax.environment.sc2api.protos import runtime, sc2api
+from sc2jax.environment.server.install_layout import write_sc2path
+from sc2jax.experiments.benchmarking.machine import machine
+from sc2jax.experiments.reporting.markdown import write_section
+from sc2jax.experiments.training import trainer
+from sc2jax.experiments.training.config import TrainConfig
+from sc2jax.experiments.training.host_actor import HostActor
 
 FLAGS = flags.FLAGS
 flags.DEFINE_list("maps", ["MoveToBeacon", "CollectMineralShards"], "Mini-games to measure.")

@@ -22,13 +22,13 @@ import time
 import jax
 from absl import app, flags
 
+from sc2jax.checks import check_positive_int, positive_ints
 from sc2jax.environment.agents import random_action
-from sc2jax.experiments.actor import make_unroll
-from sc2jax.experiments.checks import check_positive_int, positive_ints
-from sc2jax.experiments.compiled_loop import make_train_step
-from sc2jax.experiments.config import TrainConfig
-from sc2jax.experiments.markdown import write_section
-from sc2jax.experiments.trainer import build
+from sc2jax.experiments.reporting.markdown import write_section
+from sc2jax.experiments.training.actor import make_unroll
+from sc2jax.experiments.training.compiled_loop import make_train_step
+from sc2jax.experiments.training.config import TrainConfig
+from sc2jax.experiments.training.trainer import build
 
 SECTION = "## Training throughput on {platform}"
 

@@ -25,28 +25,21 @@ import time
 
 from absl import app, flags
 
+from sc2jax.atomic import write_json_atomic
 from sc2jax.environment import MAPS, make
 from sc2jax.environment.agents import required_format
-from sc2jax.environment.game_env import GameEnvBatch
-from sc2jax.experiments import evaluation, trainer
-from sc2jax.experiments.actor import actor_core
-from sc2jax.experiments.checkpoints import write_json_atomic
-from sc2jax.experiments.config import BACKENDS
-from sc2jax.experiments.paper import paper_rows
+from sc2jax.environment.sc2api.game_env import GameEnvBatch
+from sc2jax.experiments.reporting.paper import paper_rows
+from sc2jax.experiments.training import evaluation, trainer
+from sc2jax.experiments.training import flags as training_flags
+from sc2jax.experiments.training.actor import actor_core
+from sc2jax.experiments.training.config import BACKENDS
 
-_MAP = flags.DEFINE_string("map", "MoveToBeacon", f"Mini-game: one of {sorted(MAPS)} "
-                           "(with --backend=sc2, any map the game has).")
-_BACKEND = flags.DEFINE_enum("backend", "simulator", list(BACKENDS),
-                             "'simulator' (embedded) or 'sc2' (StarCraft II, one game process "
-                             "per environment, from --sc2path).")
-_SC2PATH = flags.DEFINE_string("sc2path", None, "The game's install (default $SC2PATH).")
+_MAP, _BACKEND, _SC2PATH, _NUM_ENVS, _SCREEN, _MINIMAP, _STEP_MUL, _SEED = training_flags.define(
+    ("map", "backend", "sc2path", "num_envs", "screen_size", "minimap_size", "step_mul", "seed"),
+    num_envs=64).values()
 _AGENT = flags.DEFINE_string("agent", "random", f"Agent: one of {list(evaluation.AGENTS)}.")
 _EPISODES = flags.DEFINE_integer("episodes", 100, "Episodes to run.")
-_NUM_ENVS = flags.DEFINE_integer("num_envs", 64, "Environments run together per batch.")
-_SCREEN = flags.DEFINE_integer("screen_size", 64, "Feature-screen resolution (16..256).")
-_MINIMAP = flags.DEFINE_integer("minimap_size", 64, "Feature-minimap resolution (16..256).")
-_STEP_MUL = flags.DEFINE_integer("step_mul", 8, "Game loops per agent step.")
-_SEED = flags.DEFINE_integer("seed", 0, "Random seed.")
 _OUTPUT = flags.DEFINE_string("output", None, "Write the results as JSON to this file.")
 _RUN_DIR = flags.DEFINE_string("run_dir", None, "Evaluate the network trained in this run "
                                "directory (its map and format; --agent is ignored).")
@@ -63,6 +56,8 @@ def check_flags() -> None:
     if _MAP.value not in MAPS and (_BACKEND.value != "sc2" or not _MAP.value):
         raise ValueError(f"--map={_MAP.value!r} is unknown; allowed: {sorted(MAPS)} (or any "
                          f"map of the game with --backend=sc2)")
+    if _BACKEND.value not in BACKENDS:
+        raise ValueError(f"--backend={_BACKEND.value!r} is unknown; allowed: {list(BACKENDS)}")
     if _AGENT.value not in evaluation.AGENTS:
         raise ValueError(f"--agent={_AGENT.value!r} is unknown; allowed: "
                          f"{list(evaluation.AGENTS)}")
@@ -74,6 +69,8 @@ def check_flags() -> None:
                          "takes no --checkpoint_step")
     if not _TEMPERATURE.value > 0:
         raise ValueError(f"--temperature must be > 0, got {_TEMPERATURE.value}")
+
+flags.adopt_module_key_flags(training_flags)
 
 
 def main(argv) -> None:

@@ -20,101 +20,25 @@ with --output writes every policy's scores as JSON.
 from __future__ import annotations
 
 import sys
-import time
 
-import jax
-import jax.numpy as jnp
-import numpy as np
 from absl import app, flags
 
-from sc2jax.environment import MAPS
-from sc2jax.experiments.actor import actor_core
-from sc2jax.experiments.checkpoints import write_json_atomic
-from sc2jax.experiments.checks import check_positive_int
-from sc2jax.experiments.config import TrainConfig, parse_names
-from sc2jax.experiments.evaluation import core_episodes_fn
-from sc2jax.experiments.learner import init_params
-from sc2jax.experiments.paper import paper_rows
-from sc2jax.experiments.trainer import build
-from sc2jax.networks.factory import NETWORKS
+from sc2jax.atomic import write_json_atomic
+from sc2jax.experiments.reporting.paper import paper_rows
+from sc2jax.experiments.sweeps.random_search import random_search
+from sc2jax.experiments.training import flags as training_flags
+from sc2jax.experiments.training.config import TrainConfig, parse_names
 
-
-def over_policies(fn):
-    """`fn(params, key)` over a leading policy axis of both: `vmap` on an accelerator,
-    `lax.map` (one policy after another, in the same program) on CPU."""
-    if jax.default_backend() == "cpu":
-        return lambda params, keys: jax.lax.map(lambda args: fn(*args), (params, keys))
-    return jax.vmap(fn)
-
-
-def random_search(config: TrainConfig, num_policies: int, *, temperature: float = 1e-3,
-                  episodes: int = 20, policies_per_batch: int = 8,
-                  log=print) -> dict:
-    """Evaluates `num_policies` randomly initialised networks of `config.agent`.
-
-    Args:
-      config: the map, network and observation format (and `seed`).
-      num_policies: policies to try.
-      temperature: their softmax temperature (> 0; low is near-deterministic).
-      episodes: episodes per policy (20 in the paper).
-      policies_per_batch: policies evaluated together.
-
-    Returns:
-      {"policy_means": [...], "policy_max": [...], "best_policy", "best_mean", "max"}.
-
-    Raises:
-      ValueError: for non-positive counts or temperature, or a config not on the
-        simulator.
-    """
-    for name, value in (("num_policies", num_policies), ("episodes", episodes),
-                        ("policies_per_batch", policies_per_batch)):
-        check_positive_int(name, value)
-    if not temperature > 0:
-        raise ValueError(f"temperature must be > 0, got {temperature!r}")
-    if config.backend != "simulator":
-        raise ValueError(f"random search evaluates its policies in one compiled program on "
-                         f"the simulator; backend {config.backend!r} is not allowed")
-    agent = build(config)
-    core = actor_core(agent.network, temperature)
-    obs = jax.eval_shape(lambda: jax.vmap(agent.sim.reset)(
-        jax.random.split(jax.random.PRNGKey(0), 1))[1].observation)
-    dummy = jax.tree.map(lambda s: jnp.zeros(s.shape, s.dtype), obs)
-    init = jax.vmap(lambda key: init_params(agent.network, key, dummy))
-    evaluate = jax.jit(over_policies(core_episodes_fn(agent.sim, core, episodes)))
-    key = jax.random.PRNGKey(config.seed)
-    means, maxes = [], []
-    start = time.time()
-    while len(means) < num_policies:
-        key, init_key, eval_key = jax.random.split(key, 3)
-        params = init(jax.random.split(init_key, policies_per_batch))
-        scores, _, done = jax.device_get(evaluate(
-            params, jax.random.split(eval_key, policies_per_batch)))
-        if not done.all():
-            raise RuntimeError("an episode did not end within the map's time limit")
-        means += scores.mean(axis=1).tolist()
-        maxes += scores.max(axis=1).tolist()
-        log(f"  {min(len(means), num_policies)} policies, best mean so far "
-            f"{max(means[:num_policies]):.2f} [{time.time() - start:.0f} s]")
-    means, maxes = means[:num_policies], maxes[:num_policies]
-    best = int(np.argmax(means))
-    return {"policy_means": means, "policy_max": maxes, "best_policy": best,
-            "best_mean": means[best], "max": float(np.max(maxes)),
-            "temperature": temperature, "episodes_per_policy": episodes,
-            "seconds": time.time() - start, "config": config.to_json()}
-
-
-_MAP = flags.DEFINE_string("map", "MoveToBeacon", f"Mini-game: one of {sorted(MAPS)}.")
-_AGENT = flags.DEFINE_string("agent", "fullyconv", f"Network: one of {sorted(NETWORKS)}.")
-_SCREEN = flags.DEFINE_integer("screen_size", 64, "Feature-screen resolution (16..256).")
-_MINIMAP = flags.DEFINE_integer("minimap_size", 64, "Feature-minimap resolution (16..256).")
-_SCREEN_FEATURES = flags.DEFINE_string("screen_features", "all", "Screen layers, or 'all'.")
-_MINIMAP_FEATURES = flags.DEFINE_string("minimap_features", "all", "Minimap layers, or 'all'.")
+_MAP, _AGENT, _SCREEN, _MINIMAP, _SCREEN_FEATURES, _MINIMAP_FEATURES, _SEED = (
+    training_flags.define(("map", "agent", "screen_size", "minimap_size", "screen_features",
+                           "minimap_features", "seed")).values())
 _NUM_POLICIES = flags.DEFINE_integer("num_policies", 100, "Random policies to try.")
 _TEMPERATURE = flags.DEFINE_float("temperature", 1e-3, "Their softmax temperature.")
 _EPISODES = flags.DEFINE_integer("episodes", 20, "Episodes per policy.")
 _BATCH = flags.DEFINE_integer("policies_per_batch", 8, "Policies evaluated together.")
-_SEED = flags.DEFINE_integer("seed", 0, "Random seed.")
 _OUTPUT = flags.DEFINE_string("output", None, "Write the results as JSON to this file.")
+
+flags.adopt_module_key_flags(training_flags)
 
 
 def main(argv) -> None:

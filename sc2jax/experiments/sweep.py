@@ -4,10 +4,10 @@ trained together (vmapped in one program on an accelerator).
     python -m sc2jax.experiments.sweep --map=MoveToBeacon --agent=fullyconv \
         --num_runs=8 --total_steps=2000000 --run_dir=/tmp/sweeps/beacon
 
-Takes every flag of `sc2jax.experiments.train` (the shared config; --learning_rate is
-replaced by the sampled rates) plus the sampling range. Prints Table 1's entries for
-the sweep (the mean over runs, the best run's mean and the max episode score) beside
-the paper's.
+Takes every flag of `sc2jax.experiments.train` (the shared config, --preset included;
+--learning_rate is replaced by the sampled rates) plus the sampling range. Prints
+Table 1's entries for the sweep (the mean over runs, the best run's mean and the max
+episode score) beside the paper's.
 """
 
 from __future__ import annotations
@@ -15,33 +15,27 @@ from __future__ import annotations
 import os
 import sys
 
-import jax
 from absl import app, flags
 
-from sc2jax.experiments import train as train_flags
-from sc2jax.experiments.paper import paper_rows
-from sc2jax.experiments.sweeping import run_sweep, sample_learning_rates
+from sc2jax.experiments.reporting.paper import paper_rows
+from sc2jax.experiments.sweeps import flags as sweep_flags
+from sc2jax.experiments.sweeps.sweeping import run_sweep
+from sc2jax.experiments.training import flags as training_flags
 
-_NUM_RUNS = flags.DEFINE_integer("num_runs", 8, "Runs in the sweep (trained together).")
-_LR_MIN = flags.DEFINE_float("lr_min", 1e-5, "Smallest sampled learning rate.")
-_LR_MAX = flags.DEFINE_float("lr_max", 1e-3, "Largest sampled learning rate.")
-_SWEEP_SEED = flags.DEFINE_integer("sweep_seed", 0, "Seed of the sampled learning rates.")
+training_flags.define_training()
 
-
-def learning_rates_from_flags():
-    """float32[--num_runs] rates sampled by the flags (ValueError for a bad value)."""
-    return sample_learning_rates(jax.random.PRNGKey(_SWEEP_SEED.value), _NUM_RUNS.value,
-                                 _LR_MIN.value, _LR_MAX.value)
+flags.adopt_module_key_flags(training_flags)
+flags.adopt_module_key_flags(sweep_flags)
 
 
 def main(argv) -> None:
     del argv
     try:
-        config = train_flags.config_from_flags()
-        rates = learning_rates_from_flags()
+        config = training_flags.config_from_flags()
+        rates = sweep_flags.learning_rates_from_flags()
     except ValueError as error:
         sys.exit(f"error: {error}")
-    sweep_dir = train_flags.run_dir_or_temporary(config)
+    sweep_dir = training_flags.run_dir_or_temporary(config)
     print(f"Sweep directory: {os.path.abspath(sweep_dir)}\nLearning rates: "
           f"{', '.join(f'{r:.2e}' for r in rates)}", flush=True)
     try:

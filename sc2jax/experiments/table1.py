@@ -20,16 +20,20 @@ import sys
 
 from absl import app, flags
 
-from sc2jax.experiments import sweep as sweep_flags
-from sc2jax.experiments import train as train_flags
-from sc2jax.experiments.tables import build_table1, parse_maps, table1_markdown
+from sc2jax.experiments.sweeps import flags as sweep_flags
+from sc2jax.experiments.sweeps.tables import build_table1, parse_maps, table1_markdown
+from sc2jax.experiments.training import flags as training_flags
 
+training_flags.define_training()
 _MAPS = flags.DEFINE_string("maps", "all", "Comma-separated mini-games, or 'all' (the "
                             "seven, in the paper's order).")
 _RANDOM_EPISODES = flags.DEFINE_integer("random_episodes", 100, "Episodes of the random "
                                         "policy per map (0: leave its column empty).")
 
 FLAGS = flags.FLAGS
+
+flags.adopt_module_key_flags(training_flags)
+flags.adopt_module_key_flags(sweep_flags)
 
 
 def main(argv) -> None:
@@ -38,13 +42,13 @@ def main(argv) -> None:
         sys.exit("error: table1 takes --maps (comma-separated, or 'all'), not --map")
     try:
         maps = parse_maps(_MAPS.value)
-        config = dataclasses.replace(train_flags.config_from_flags(), map_name=maps[0])
+        config = dataclasses.replace(training_flags.config_from_flags(), map_name=maps[0])
         rates = sweep_flags.learning_rates_from_flags()
         if _RANDOM_EPISODES.value < 0:
             raise ValueError(f"--random_episodes must be >= 0, got {_RANDOM_EPISODES.value}")
     except ValueError as error:
         sys.exit(f"error: {error}")
-    run_dir = train_flags.run_dir_or_temporary(config)
+    run_dir = training_flags.run_dir_or_temporary(config)
     print(f"Table directory: {os.path.abspath(run_dir)}\nMaps: {', '.join(maps)}\n"
           f"Learning rates: {', '.join(f'{r:.2e}' for r in rates)}", flush=True)
     try:

@@ -14,7 +14,6 @@ from sc2jax.losses.learner_loss import (
     OFF_POLICY_CORRECTIONS,
     Trajectory,
     make_actor_critic_loss,
-    unroll,
 )
 from sc2jax.losses.returns import n_step_returns, truncated_returns
 from sc2jax.losses.supervised import (
@@ -24,5 +23,8 @@ from sc2jax.losses.supervised import (
     supervised_loss,
     supervised_metrics,
 )
+
+# The time-major network unroll lives in `sc2jax.networks`; kept here for old imports.
+from sc2jax.networks.unroll import unroll
 
 __all__ = [name for name in dir() if not name.startswith("_")]

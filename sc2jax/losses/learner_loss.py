@@ -14,12 +14,11 @@ import flax.linen as nn
 import jax
 import jax.numpy as jnp
 
-from sc2jax.environment.dense import DenseAction
+from sc2jax.environment.interface.dense import DenseAction
 from sc2jax.losses.actor_critic import a3c_loss, vtrace_loss
 from sc2jax.networks import policy
-from sc2jax.networks.ar_fully_conv import ARFullyConv
-from sc2jax.networks.fully_conv_lstm import FullyConvLSTM, LSTMCarry
-from sc2jax.networks.outputs import NetworkOutput
+from sc2jax.networks.outputs import LSTMCarry
+from sc2jax.networks.unroll import unroll
 
 LossFn = Callable[[Any, "Trajectory"], tuple[jax.Array, dict[str, jax.Array]]]
 OFF_POLICY_CORRECTIONS = ("none", "vtrace")
@@ -46,36 +45,6 @@ class Trajectory(NamedTuple):
     first: jax.Array
     behaviour_log_prob: jax.Array | None = None
     initial_carry: LSTMCarry | None = None
-
-
-def unroll(network: nn.Module, params: Any, observation: Mapping[str, jax.Array],
-           action: DenseAction | None = None, first: jax.Array | None = None,
-           initial_carry: LSTMCarry | None = None) -> NetworkOutput:
-    """Runs any network over time-major inputs [N, B, ...].
-
-    Args:
-      network: one of the four networks.
-      params: its parameters.
-      observation: leaves [N, B, ...].
-      action: `DenseAction` [N, B] for arFullyConv's teacher forcing (None: no_op).
-      first: [N, B] episode starts (FullyConv LSTM).
-      initial_carry: FullyConv LSTM carry before the first step.
-
-    Returns:
-      `NetworkOutput` with leading dims [N, B].
-    """
-    n, b = jnp.shape(observation["available_actions"])[:2]
-    if isinstance(network, FullyConvLSTM):
-        if first is None or initial_carry is None:
-            raise ValueError("FullyConvLSTM needs `first` and `initial_carry`")
-        return network.apply(params, initial_carry, observation, first)[1]
-    flat = jax.tree.map(lambda x: jnp.reshape(x, (n * b,) + jnp.shape(x)[2:]), dict(observation))
-    if isinstance(network, ARFullyConv) and action is not None:
-        action = jax.tree.map(lambda x: jnp.reshape(x, (n * b,) + jnp.shape(x)[2:]), action)
-        out = network.apply(params, flat, action)
-    else:
-        out = network.apply(params, flat)
-    return jax.tree.map(lambda x: jnp.reshape(x, (n, b) + x.shape[1:]), out)
 
 
 def make_actor_critic_loss(network: nn.Module, *, value_weight: float = 0.5,

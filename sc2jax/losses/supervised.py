@@ -25,7 +25,7 @@ import jax
 import jax.numpy as jnp
 import optax
 
-from sc2jax.environment.dense import DenseAction
+from sc2jax.environment.interface.dense import DenseAction
 from sc2jax.networks import policy
 from sc2jax.networks.outputs import NetworkOutput, PixelLogits, XYLogits
 

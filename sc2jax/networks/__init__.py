@@ -9,8 +9,14 @@ from sc2jax.networks.ar_fully_conv import ARFullyConv
 from sc2jax.networks.atari_net import AtariNet
 from sc2jax.networks.factory import NETWORKS, act, make_network
 from sc2jax.networks.fully_conv import FullyConv, FullyConvTorso
-from sc2jax.networks.fully_conv_lstm import FullyConvLSTM, LSTMCarry
-from sc2jax.networks.outputs import ArgumentLogits, NetworkOutput, PixelLogits, XYLogits
+from sc2jax.networks.fully_conv_lstm import FullyConvLSTM
+from sc2jax.networks.outputs import (
+    ArgumentLogits,
+    LSTMCarry,
+    NetworkOutput,
+    PixelLogits,
+    XYLogits,
+)
 from sc2jax.networks.policy import (
     MASKED_LOGIT,
     PolicyEntropy,
@@ -24,5 +30,6 @@ from sc2jax.networks.policy import (
 )
 from sc2jax.networks.preprocessing import SpatialEncoder, embedding_dim, log_transform
 from sc2jax.networks.spec import DEFAULT_NONSPATIAL_KEYS, NetworkSpec
+from sc2jax.networks.unroll import unroll
 
 __all__ = [name for name in dir() if not name.startswith("_")]

@@ -26,7 +26,7 @@ import flax.linen as nn
 import jax
 import jax.numpy as jnp
 
-from sc2jax.environment.dense import DenseAction
+from sc2jax.environment.interface.dense import DenseAction
 from sc2jax.networks.fully_conv import FullyConvTorso
 from sc2jax.networks.heads import pixel_logits, resize
 from sc2jax.networks.outputs import ArgumentLogits, NetworkOutput

@@ -19,7 +19,7 @@ import flax.linen as nn
 import jax
 import jax.numpy as jnp
 
-from sc2jax.environment.dense import DenseAction
+from sc2jax.environment.interface.dense import DenseAction
 from sc2jax.networks.heads import ScalarArgumentHeads, XYHeads
 from sc2jax.networks.outputs import ArgumentLogits, NetworkOutput
 from sc2jax.networks.preprocessing import SpatialEncoder, nonspatial_features, spatial_inputs

@@ -8,8 +8,8 @@ from typing import Any
 import flax.linen as nn
 import jax
 
-from sc2jax.environment.dense import DenseAction
-from sc2jax.environment.specs import ObservationFormat
+from sc2jax.environment.interface.dense import DenseAction
+from sc2jax.environment.interface.specs import ObservationFormat
 from sc2jax.networks import policy
 from sc2jax.networks.ar_fully_conv import ARFullyConv
 from sc2jax.networks.atari_net import AtariNet

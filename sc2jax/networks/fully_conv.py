@@ -21,7 +21,7 @@ import flax.linen as nn
 import jax
 import jax.numpy as jnp
 
-from sc2jax.environment.dense import DenseAction
+from sc2jax.environment.interface.dense import DenseAction
 from sc2jax.networks.heads import ConvPointHeads, ScalarArgumentHeads, broadcast_vector, resize
 from sc2jax.networks.outputs import ArgumentLogits, NetworkOutput
 from sc2jax.networks.preprocessing import SpatialEncoder, nonspatial_features, spatial_inputs

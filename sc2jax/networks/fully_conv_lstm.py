@@ -14,22 +14,14 @@ ConvLSTM cell runs inside the `scan` over time.
 from __future__ import annotations
 
 from collections.abc import Mapping
-from typing import NamedTuple
 
 import flax.linen as nn
 import jax
 import jax.numpy as jnp
 
 from sc2jax.networks.fully_conv import FullyConvHeads, FullyConvTorso
-from sc2jax.networks.outputs import NetworkOutput
+from sc2jax.networks.outputs import LSTMCarry, NetworkOutput
 from sc2jax.networks.spec import NetworkSpec
-
-
-class LSTMCarry(NamedTuple):
-    """The ConvLSTM state, each [B, Ys, Xs, features] at the screen resolution."""
-
-    c: jax.Array
-    h: jax.Array
 
 
 class ResettingConvLSTM(nn.Module):

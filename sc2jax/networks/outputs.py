@@ -19,7 +19,7 @@ import jax
 import jax.numpy as jnp
 from flax import struct
 
-from sc2jax.environment.arguments import Arguments
+from sc2jax.environment.interface.arguments import Arguments
 
 
 @struct.dataclass
@@ -94,3 +94,10 @@ class NetworkOutput(NamedTuple):
     value: jax.Array
     function_logits: jax.Array
     argument_logits: ArgumentLogits
+
+
+class LSTMCarry(NamedTuple):
+    """The ConvLSTM state, each [B, Ys, Xs, features] at the screen resolution."""
+
+    c: jax.Array
+    h: jax.Array

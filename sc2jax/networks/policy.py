@@ -23,8 +23,8 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from sc2jax.environment.dense import DenseAction
-from sc2jax.environment.functions import FUNCTION_ARGS_MASK
+from sc2jax.environment.interface.dense import DenseAction
+from sc2jax.environment.interface.functions import FUNCTION_ARGS_MASK
 from sc2jax.networks.outputs import NetworkOutput, PixelLogits, XYLogits
 
 MASKED_LOGIT = -1e9

@@ -24,7 +24,7 @@ import jax
 import jax.numpy as jnp
 from flax.linen.linear import default_embed_init
 
-from sc2jax.environment.features import Feature
+from sc2jax.environment.interface.features import Feature
 from sc2jax.networks.spec import NetworkSpec
 
 

@@ -14,8 +14,8 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from sc2jax.environment.features import Feature
-from sc2jax.environment.specs import ObservationFormat, action_spec, observation_spec
+from sc2jax.environment.interface.features import Feature
+from sc2jax.environment.interface.specs import ObservationFormat, action_spec, observation_spec
 
 DEFAULT_NONSPATIAL_KEYS = ("player",)
 """Padded-observation entries fed to the non-spatial input by default: the 11 player

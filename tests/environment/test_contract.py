@@ -7,8 +7,7 @@ import numpy as np
 import pytest
 
 from sc2jax.environment import FUNCTIONS, MAPS, ObservationFormat, make, to_dense
-
-from .conftest import PARAMS, SMALL_MAKE, compiled, random_episode, small_sim
+from tests.environment.helpers import PARAMS, SMALL_MAKE, compiled, random_episode, small_sim
 
 MAP_NAMES = sorted(MAPS)
 

@@ -9,8 +9,7 @@ import numpy as np
 import pytest
 
 from sc2jax.environment import FUNCTIONS, MAPS, to_dense
-
-from .conftest import PARAMS, compiled, small_sim
+from tests.environment.helpers import PARAMS, compiled, small_sim
 
 MAP_NAMES = sorted(MAPS)
 
@@ -32,7 +31,7 @@ def test_vmap_matches_single(map_name):
         sim = dataclasses.replace(sim, use_slot_sizes=False)
     reset, step = compiled(sim)
     vreset, vstep = compiled(sim, batched=True)
-    # Four environments, as tests/environment/test_devices.py batches MoveToBeacon (one
+    # Four environments, as tests/environment/engine/xla/test_devices.py batches MoveToBeacon (one
     # program for both files).
     keys = jax.random.split(jax.random.PRNGKey(5), 4)
     states, tss = vreset(keys, PARAMS)

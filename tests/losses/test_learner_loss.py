@@ -5,7 +5,7 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 
-from sc2jax.environment.dense import DenseAction
+from sc2jax.environment.interface.dense import DenseAction
 from sc2jax.losses import Trajectory, make_actor_critic_loss
 from tests.networks.helpers import BATCH, network, random_action, seq_obs
 

@@ -5,7 +5,7 @@ import jax.numpy as jnp
 import numpy as np
 import optax
 
-from sc2jax.environment.dense import DenseAction
+from sc2jax.environment.interface.dense import DenseAction
 from sc2jax.losses import SupervisedBatch, make_supervised_loss, supervised_metrics
 from sc2jax.networks import ArgumentLogits, NetworkOutput, PixelLogits, XYLogits
 from tests.networks.helpers import SPEC, network, random_action, random_obs

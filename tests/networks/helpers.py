@@ -14,8 +14,8 @@ import jax.numpy as jnp
 import numpy as np
 
 from sc2jax.environment import ObservationFormat, observation_spec
-from sc2jax.environment.dense import DenseAction
-from sc2jax.environment.functions import FUNCTION_ARGS_MASK, NUM_FUNCTIONS
+from sc2jax.environment.interface.dense import DenseAction
+from sc2jax.environment.interface.functions import FUNCTION_ARGS_MASK, NUM_FUNCTIONS
 from sc2jax.networks import NetworkSpec, make_network
 
 FMT = ObservationFormat(

@@ -6,7 +6,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from sc2jax.environment.dense import DenseAction
+from sc2jax.environment.interface.dense import DenseAction
 from sc2jax.networks import act, log_prob
 from tests.networks.helpers import BATCH, jitted_apply, network, random_obs
 

@@ -7,9 +7,9 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from sc2jax.environment import threefry
-from sc2jax.environment.arguments import Arguments
-from sc2jax.environment.dense import DenseAction
+from sc2jax.environment.engine.xla import threefry
+from sc2jax.environment.interface.arguments import Arguments
+from sc2jax.environment.interface.dense import DenseAction
 
 
 def kth_true(mask, k, width: int = 32):

@@ -15,19 +15,17 @@ What each needs from the observation format is checked when the policy is built
 from __future__ import annotations
 
 import functools
-from collections.abc import Callable
 
-import jax
 import jax.numpy as jnp
 
-from sc2jax.environment.dense import DenseAction
-from sc2jax.environment.features import PlayerRelative, Visibility
-from sc2jax.environment.functions import FUNCTIONS
-from sc2jax.environment.minigames import get_map
-from sc2jax.environment.observation_tables import FeatureUnit
-from sc2jax.environment.specs import ObservationFormat
-
-Policy = Callable[[jax.Array, dict], DenseAction]
+from sc2jax.environment.agents.calls import Policy, call, pick
+from sc2jax.environment.agents.scripted_economy import PLANS, economy
+from sc2jax.environment.engine.minigames import get_map
+from sc2jax.environment.interface.dense import DenseAction
+from sc2jax.environment.interface.features import PlayerRelative, Visibility
+from sc2jax.environment.interface.functions import FUNCTIONS
+from sc2jax.environment.interface.observation_tables import FeatureUnit
+from sc2jax.environment.interface.specs import ObservationFormat
 
 _NO_OP = FUNCTIONS.no_op.id
 _SELECT_POINT = FUNCTIONS.select_point.id
@@ -40,29 +38,6 @@ _BANELING = 9  # The StarCraft II unit id.
 # units, from the marines' centre), and each step back aims this far (world units).
 _BANELING_DANGER = 4.5
 _RETREAT = 4.0
-
-
-def call(function, **arguments) -> DenseAction:
-    """An unbatched jnp `DenseAction`: `function` with the named arguments, others 0.
-
-    Args:
-      function: int32 scalar function id (may be traced).
-      **arguments: argument-type name -> int32 value ([2] (x, y) for points).
-    """
-    fields = {}
-    for name in DenseAction._fields[1:]:
-        shape = (2,) if name in ("screen", "minimap", "screen2") else ()
-        value = arguments.pop(name, jnp.zeros(shape, jnp.int32))
-        fields[name] = jnp.broadcast_to(jnp.asarray(value, jnp.int32), shape)
-    if arguments:
-        raise ValueError(f"unknown argument types {sorted(arguments)}; allowed: "
-                         f"{list(DenseAction._fields[1:])}")
-    return DenseAction(function=jnp.asarray(function, jnp.int32), **fields)
-
-
-def pick(condition, if_true: DenseAction, if_false: DenseAction) -> DenseAction:
-    """`if_true` where `condition` (a bool scalar) holds, else `if_false`."""
-    return jax.tree_util.tree_map(lambda a, b: jnp.where(condition, a, b), if_true, if_false)
 
 
 def _units(obs, alliance):
@@ -241,8 +216,6 @@ def scripted_policy(map_name: str, fmt: ObservationFormat) -> Policy:
     if map_name == "DefeatZerglingsAndBanelings":
         return defeat_zerglings_and_banelings
     if map_name in ("CollectMineralsAndGas", "BuildMarines"):
-        # Imported here: the economy agents build on this module's helpers.
-        from sc2jax.environment.agents.scripted_economy import PLANS, economy
         return functools.partial(economy, plan=PLANS[map_name])
     raise ValueError(f"no scripted agent for map {map_name!r}; there are agents for "
                      f"{list(SCRIPTED_MAPS)}")

@@ -28,13 +28,13 @@ from typing import NamedTuple
 import jax.numpy as jnp
 import numpy as np
 
-from sc2jax.environment.agents.scripted import call, pick
-from sc2jax.environment.dense import DenseAction
-from sc2jax.environment.features import PlayerRelative
-from sc2jax.environment.functions import FUNCTIONS
-from sc2jax.environment.minigames.economy import CAMERA
-from sc2jax.environment.observation import BASE_RADIUS
-from sc2jax.environment.observation_tables import FeatureUnit, Player
+from sc2jax.environment.agents.calls import call, pick
+from sc2jax.environment.engine.minigames.economy import CAMERA
+from sc2jax.environment.engine.observation import BASE_RADIUS
+from sc2jax.environment.interface.dense import DenseAction
+from sc2jax.environment.interface.features import PlayerRelative
+from sc2jax.environment.interface.functions import FUNCTIONS
+from sc2jax.environment.interface.observation_tables import FeatureUnit, Player
 
 _SCV, _CC, _DEPOT, _REFINERY, _BARRACKS = 45, 18, 19, 20, 21
 _MINERAL_FIELD, _GEYSER = 341, 342

@@ -1,0 +1,245 @@
+"""Applies one dense action to the state: UI functions and commands to the selection.
+
+Each function id maps to an internal action kind (`KIND_TABLE`); `apply_action` runs the
+kind's branch with `lax.switch`. Function availability is checked first against the
+selection the agent saw; an unavailable function does nothing and reports
+`ActionResult.NotSupported`, as the game does for an ability missing from the command
+card. (The dm_env shell can instead raise before stepping, as PySC2's
+`ensure_available_actions` does.)
+"""
+
+from __future__ import annotations
+
+import enum
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+
+from sc2jax.environment.engine import ui
+from sc2jax.environment.engine.availability import CARD_TABLE, available_actions
+from sc2jax.environment.engine.render import Renderer, pick_unit
+from sc2jax.environment.engine.rules import commands, production
+from sc2jax.environment.engine.rules.geometry import clamp_camera
+from sc2jax.environment.engine.rules.state import NO_TARGET, EnvState, Order, Owner
+from sc2jax.environment.engine.rules.units import UNIT_DATA, UnitType
+from sc2jax.environment.interface.dense import DenseAction
+from sc2jax.environment.interface.functions import FUNCTIONS, NUM_FUNCTIONS, FunctionType
+from sc2jax.environment.interface.observation_tables import ScoreCumulative
+from sc2jax.environment.interface.protocol_enums import ActionResult
+
+
+class Kind(enum.IntEnum):
+    """What the simulator does for a function."""
+
+    UNSUPPORTED = 0
+    NOOP = 1
+    MOVE_CAMERA = 2
+    SELECT_POINT = 3
+    SELECT_RECT = 4
+    CONTROL_GROUP = 5
+    SELECT_UNIT = 6
+    SELECT_ARMY = 7
+    ATTACK = 8
+    MOVE = 9
+    PATROL = 10
+    SMART = 11
+    HOLD = 12
+    STOP = 13
+    GATHER = 14
+    RETURN = 15
+    BUILD = 16
+    TRAIN = 17
+    RALLY = 18
+    CANCEL = 19
+    CANCEL_LAST = 20
+    SELECT_IDLE_WORKER = 21
+    BUILD_QUEUE = 22
+
+
+_BY_NAME = {
+    "no_op": Kind.NOOP, "move_camera": Kind.MOVE_CAMERA, "select_point": Kind.SELECT_POINT,
+    "select_rect": Kind.SELECT_RECT, "select_control_group": Kind.CONTROL_GROUP,
+    "select_unit": Kind.SELECT_UNIT, "select_army": Kind.SELECT_ARMY,
+    "Attack_screen": Kind.ATTACK, "Attack_minimap": Kind.ATTACK,
+    "Move_screen": Kind.MOVE, "Move_minimap": Kind.MOVE,
+    "Patrol_screen": Kind.PATROL, "Patrol_minimap": Kind.PATROL,
+    "Smart_screen": Kind.SMART, "Smart_minimap": Kind.SMART,
+    "HoldPosition_quick": Kind.HOLD, "Stop_quick": Kind.STOP,
+    "Harvest_Gather_screen": Kind.GATHER, "Harvest_Return_quick": Kind.RETURN,
+    "Build_SupplyDepot_screen": Kind.BUILD, "Build_Barracks_screen": Kind.BUILD,
+    "Build_Refinery_screen": Kind.BUILD, "Build_CommandCenter_screen": Kind.BUILD,
+    "Train_SCV_quick": Kind.TRAIN, "Train_Marine_quick": Kind.TRAIN,
+    "Rally_Workers_screen": Kind.RALLY, "Rally_Workers_minimap": Kind.RALLY,
+    "Rally_Units_screen": Kind.RALLY, "Rally_Units_minimap": Kind.RALLY,
+    "Cancel_quick": Kind.CANCEL, "Cancel_Last_quick": Kind.CANCEL_LAST,
+    "select_idle_worker": Kind.SELECT_IDLE_WORKER, "build_queue": Kind.BUILD_QUEUE,
+}
+
+# The unit type a Build_* or Train_* function makes.
+_MAKES = {"Build_SupplyDepot_screen": UnitType.SUPPLY_DEPOT,
+          "Build_Barracks_screen": UnitType.BARRACKS, "Build_Refinery_screen": UnitType.REFINERY,
+          "Build_CommandCenter_screen": UnitType.COMMAND_CENTER,
+          "Train_SCV_quick": UnitType.SCV, "Train_Marine_quick": UnitType.MARINE}
+MAKES_TABLE = np.zeros(NUM_FUNCTIONS, np.int32)
+MAKE_ABILITY = np.zeros(len(UnitType), np.int32)
+"""The ability id that builds or trains each unit type (0 where none does)."""
+for _name, _type in _MAKES.items():
+    MAKES_TABLE[FUNCTIONS[_name].id] = _type
+    MAKE_ABILITY[_type] = FUNCTIONS[_name].ability_id
+
+KIND_TABLE = np.zeros(NUM_FUNCTIONS, np.int32)
+for _name, _kind in _BY_NAME.items():
+    KIND_TABLE[FUNCTIONS[_name].id] = _kind
+IS_MINIMAP = np.array([f.function_type == FunctionType.cmd_minimap for f in FUNCTIONS])
+
+
+class _Context:
+    """Values the branches share, computed once per action."""
+
+    def __init__(self, state: EnvState, action: DenseAction, renderer: Renderer):
+        units = state.units
+        camera = renderer.camera
+        self.shown = renderer.units_shown(state)
+        self.pixel_pos = camera.world_to_pixel(state.camera, units.pos)
+        self.pixel_radius = jnp.asarray(UNIT_DATA.radius)[units.type] * camera.pixels_per_unit
+        sx, sy = camera.size
+        px, py = self.pixel_pos[:, 0], self.pixel_pos[:, 1]
+        self.on_screen = self.shown & (px >= 0) & (px < sx) & (py >= 0) & (py < sy)
+        self.picked = pick_unit(units, self.on_screen, self.pixel_pos, self.pixel_radius,
+                                action.screen)
+        screen_point = camera.pixel_to_world(state.camera, action.screen)
+        minimap_point = renderer.minimap.pixel_to_world(action.minimap)
+        # Units stay inside the playable area, so a target point outside it stands for
+        # the nearest point inside (where the unit stops and its order ends).
+        x0, y0, x1, y1 = renderer.geometry.playable
+        self.point = jnp.clip(
+            jnp.where(jnp.asarray(IS_MINIMAP)[action.function], minimap_point, screen_point),
+            jnp.array([x0, y0], jnp.float32), jnp.array([x1, y1], jnp.float32))
+        # Units can be targeted on the screen only.
+        self.enemy_under = jnp.where(
+            jnp.asarray(IS_MINIMAP)[action.function], False,
+            (self.picked >= 0) & (units.owner[jnp.maximum(self.picked, 0)] == Owner.ENEMY))
+        self.minimap_point = minimap_point
+        # A mineral field or the player's Refinery under a screen click, for gathering;
+        # the player's unfinished structure, for resuming its construction.
+        safe = jnp.maximum(self.picked, 0)
+        on_screen_click = ~jnp.asarray(IS_MINIMAP)[action.function] & (self.picked >= 0)
+        picked_type = units.type[safe]
+        own = units.owner[safe] == Owner.SELF
+        self.resource_under = on_screen_click & (units.contents[safe] > 0) & (
+            (picked_type == UnitType.MINERAL_FIELD) | ((picked_type == UnitType.REFINERY) & own
+                                                       & units.complete[safe]))
+        self.unfinished_under = on_screen_click & own & units.alive[safe] & ~units.complete[safe]
+        self.unit_under = jnp.where(on_screen_click, self.picked, NO_TARGET)
+
+
+def apply_action(state: EnvState, action: DenseAction, renderer: Renderer,
+                 card_table=CARD_TABLE, economy: bool = False) -> EnvState:
+    """Applies one (unbatched) dense action and records `last_action`/`action_result`.
+
+    Each kind's branch returns (units, camera, result, minerals, next_tag), where result
+    is 0 or the `ActionResult` of its failure. `economy` (static) compiles the branches
+    of production (building, training, rallies, cancels, idle workers); maps without it
+    cannot make these functions available.
+    """
+    function = jnp.clip(action.function, 0, NUM_FUNCTIONS - 1)
+    available = available_actions(state.units, card_table)[function]
+    ctx = _Context(state, action, renderer)
+    units = state.units
+    a = action
+
+    def attack_or(order):
+        target = jnp.where(ctx.enemy_under, ctx.picked, NO_TARGET)
+        kind = jnp.where(ctx.enemy_under, Order.ATTACK_UNIT, order)
+        return commands.issue(units, kind, a.queued, ctx.point, target)
+
+    minerals, next_tag = state.minerals, state.next_tag
+    makes = jnp.asarray(MAKES_TABLE)[function]
+
+    def keep_camera(result):
+        new_units, ok = result
+        return (new_units, state.camera, jnp.where(ok, 0, int(ActionResult.Error)), minerals,
+                next_tag)
+
+    def paid(new_units, result, new_minerals=minerals, new_tag=next_tag):
+        return new_units, state.camera, result, new_minerals, new_tag
+
+    def gather():
+        return commands.issue(units, Order.GATHER, a.queued, ctx.point, ctx.picked)
+
+    def smart():
+        # On a resource, workers gather; on an unfinished structure, SCVs resume its
+        # construction; producers rally; the others move (or attack an enemy).
+        moved, moved_ok = attack_or(Order.MOVE)
+        worked, worked_ok = commands.issue(
+            moved, jnp.where(ctx.resource_under, Order.GATHER, Order.CONSTRUCT), a.queued,
+            ctx.point, ctx.picked)
+        take = ctx.resource_under | ctx.unfinished_under
+        smart_units = jax.tree_util.tree_map(lambda x, y: jnp.where(take, x, y), worked, moved)
+        rallied, rallied_ok = production.set_rally(smart_units, ctx.point, ctx.unit_under)
+        return rallied, moved_ok | (take & worked_ok) | rallied_ok
+
+    def build():
+        new_units, result = production.order_build(
+            units, minerals, jnp.asarray(renderer.geometry.buildable), makes, ctx.point,
+            ctx.picked, a.queued)
+        return paid(new_units, result)
+
+    def train():
+        new_units, new_minerals, result = production.enqueue(units, minerals, makes)
+        return paid(new_units, result, new_minerals)
+
+    def cancel():
+        new_units, new_minerals, new_tag, result = production.cancel_construction(
+            units, minerals, next_tag)
+        return paid(new_units, result, new_minerals, new_tag)
+
+    def cancel_queued(index):
+        new_units, new_minerals, result = production.cancel_queued(units, minerals, index)
+        return paid(new_units, result, new_minerals)
+
+    branches = [
+        lambda: keep_camera((units, jnp.bool_(False))),  # UNSUPPORTED
+        lambda: keep_camera((units, jnp.bool_(True))),  # NOOP
+        lambda: (units, clamp_camera(renderer.geometry, ctx.minimap_point), jnp.int32(0),
+                 minerals, next_tag),
+        lambda: keep_camera(ui.select_point(units, ctx.on_screen, ctx.picked,
+                                            a.select_point_act)),
+        lambda: keep_camera(ui.select_rect(units, ctx.pixel_pos, ctx.pixel_radius,
+                                           ctx.on_screen, a.select_add, a.screen, a.screen2)),
+        lambda: keep_camera(ui.control_group(units, a.control_group_act, a.control_group_id)),
+        lambda: keep_camera(ui.select_unit(units, a.select_unit_act, a.select_unit_id)),
+        lambda: keep_camera(ui.select_army(units, a.select_add)),
+        lambda: keep_camera(attack_or(Order.ATTACK_MOVE)),
+        lambda: keep_camera(commands.issue(units, Order.MOVE, a.queued, ctx.point)),
+        lambda: keep_camera(commands.issue(units, Order.PATROL, a.queued, ctx.point)),
+        lambda: keep_camera(smart()),
+        lambda: keep_camera(commands.issue(units, Order.HOLD, a.queued, ctx.point)),
+        lambda: keep_camera(commands.stop(units)),
+        lambda: keep_camera(jax.lax.cond(ctx.resource_under, gather,
+                                         lambda: (units, jnp.bool_(False)))),
+        lambda: keep_camera(commands.issue(units, Order.RETURN, a.queued, ctx.point)),
+        build,
+        train,
+        lambda: keep_camera(production.set_rally(units, ctx.point, ctx.unit_under)),
+        cancel,
+        lambda: cancel_queued(None),
+        lambda: keep_camera(ui.select_idle_worker(units, a.select_worker)),
+        lambda: cancel_queued(a.build_queue_id),
+    ]
+    if not economy:
+        branches = branches[:Kind.BUILD]
+    kind = jnp.where(available, jnp.asarray(KIND_TABLE)[function], Kind.UNSUPPORTED)
+    kind = jnp.where(kind < len(branches), kind, Kind.UNSUPPORTED)
+    new_units, camera, result, new_minerals, new_tag = jax.lax.switch(
+        kind, [lambda _, b=b: b() for b in branches], None)
+    ok = result == 0
+    executed = available & ok & (function != FUNCTIONS.no_op.id)
+    result = jnp.where(available, result, int(ActionResult.NotSupported))
+    spent = state.minerals - new_minerals
+    return state.replace(
+        units=new_units, camera=camera, minerals=new_minerals, next_tag=new_tag,
+        score_cumulative=state.score_cumulative.at[ScoreCumulative.spent_minerals].add(spent),
+        last_action=jnp.where(executed, function, -1).astype(jnp.int32),
+        action_result=jnp.where(function == FUNCTIONS.no_op.id, 0, result).astype(jnp.int32))

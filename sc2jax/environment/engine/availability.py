@@ -1,0 +1,120 @@
+"""`available_actions`, computed from the selection by PySC2's rules.
+
+UI functions are available by PySC2's conditions (reference/pysc2_facts.md §2.2); ability
+functions are the union of the command cards of the player's selected units, exposed
+through their general functions (PySC2's default `hide_specific_actions=True`).
+"""
+
+from __future__ import annotations
+
+import jax.numpy as jnp
+import numpy as np
+
+from sc2jax.environment.engine.rules import production
+from sc2jax.environment.engine.rules.state import Owner, Units
+from sc2jax.environment.engine.rules.units import UNIT_DATA, UnitType
+from sc2jax.environment.interface.functions import ALWAYS, FUNCTIONS, NUM_FUNCTIONS
+
+COMBAT_CARD = ("Attack_screen", "Attack_minimap", "HoldPosition_quick", "Move_screen",
+               "Move_minimap", "Patrol_screen", "Patrol_minimap", "Smart_screen",
+               "Smart_minimap", "Stop_quick")
+
+SCV_CARD = COMBAT_CARD + ("Harvest_Gather_screen", "Harvest_Return_quick",
+                          "Build_SupplyDepot_screen", "Build_Barracks_screen",
+                          "Build_Refinery_screen", "Build_CommandCenter_screen")
+
+COMMAND_CARDS: dict[UnitType, tuple[str, ...]] = {
+    UnitType.MARINE: COMBAT_CARD,
+    UnitType.ZERGLING: COMBAT_CARD,
+    UnitType.ROACH: COMBAT_CARD,
+    UnitType.BANELING: COMBAT_CARD,
+    UnitType.SCV: SCV_CARD,
+    UnitType.COMMAND_CENTER: ("Train_SCV_quick", "Rally_Workers_screen", "Rally_Workers_minimap",
+                              "Smart_screen", "Smart_minimap", "Cancel_Last_quick"),
+    UnitType.BARRACKS: ("Train_Marine_quick", "Rally_Units_screen", "Rally_Units_minimap",
+                        "Smart_screen", "Smart_minimap", "Cancel_Last_quick"),
+}
+"""Each unit type's command card, as general function names. Some buttons show only
+when they apply (`available_actions`): Return Cargo while carrying, Cancel Last while
+training, Build Barracks with a complete Supply Depot."""
+
+CONSTRUCTION_CARD = ("Cancel_quick",)
+"""The card of an unfinished structure."""
+
+
+def card_table(cards: dict[UnitType, tuple[str, ...]]) -> np.ndarray:
+    """bool[num_unit_types, num_functions] from command cards (function names)."""
+    table = np.zeros((len(UnitType), NUM_FUNCTIONS), bool)
+    for unit_type, names in cards.items():
+        for name in names:
+            table[unit_type, FUNCTIONS[name].id] = True
+    return table
+
+
+CARD_TABLE = card_table(COMMAND_CARDS)
+"""bool[num_unit_types, num_functions]."""
+
+_CONSTRUCTION_MASK = card_table({UnitType.NONE: CONSTRUCTION_CARD})[UnitType.NONE]
+_ALWAYS_MASK = np.zeros(NUM_FUNCTIONS, bool)
+_ALWAYS_MASK[[FUNCTIONS[name].id for name in ALWAYS]] = True
+
+
+def army_count(units: Units):
+    own = units.alive & (units.owner == Owner.SELF)
+    return jnp.sum(own & jnp.asarray(UNIT_DATA.is_army)[units.type]).astype(jnp.int32)
+
+
+def idle_worker_count(units: Units):
+    """int32: the player's idle SCVs."""
+    return jnp.sum(units.idle_workers).astype(jnp.int32)
+
+
+def _selected_types(units: Units, own_selected):
+    """bool[num_unit_types]: the types of the complete units among `own_selected` (bool[N])."""
+    of_type = units.type[:, None] == jnp.arange(len(UnitType), dtype=units.type.dtype)
+    return jnp.any(of_type & (own_selected & units.complete)[:, None], axis=0)
+
+
+def available_actions(units: Units, card_table=CARD_TABLE):
+    """bool[num_functions]: the functions the player may call.
+
+    The command cards are united per selected unit type: the rows of the types that have
+    a card, each kept where its type is selected, OR-ed one at a time (elementwise),
+    where a gather of every unit's card row would cost [num_slots, num_functions]. (A
+    [num_unit_types] x [num_unit_types, num_functions] product did the same, but under
+    `vmap` XLA's CPU backend gives it to a library call.)
+
+    Args:
+      units: the units.
+      card_table: bool[num_unit_types, num_functions] numpy array, the command cards in
+        use (maps may restrict them).
+    """
+    own_selected = units.selected & units.alive & (units.owner == Owner.SELF)
+    selected_types = _selected_types(units, own_selected)
+    table = np.asarray(card_table, bool)
+    cards = jnp.zeros(table.shape[1], bool)
+    for unit_type in np.flatnonzero(table.any(axis=1)):
+        cards = cards | (selected_types[unit_type] & jnp.asarray(table[unit_type]))
+    constructing = jnp.any(own_selected & ~units.complete)
+    mask = cards | (constructing & jnp.asarray(_CONSTRUCTION_MASK)) | jnp.asarray(_ALWAYS_MASK)
+    count = jnp.sum(units.selected & units.alive)
+    carrying = own_selected & (units.type == UnitType.SCV) & (units.cargo > 0)
+    queue = units.queue[:, 0] != 0
+    training = own_selected & units.complete & queue
+    depot = production.has_structure(units, UnitType.SUPPLY_DEPOT)
+    # Single entries are set through constant one-hot masks, so that the whole mask is
+    # one elementwise kernel, where an `.at[i].set` per entry is a kernel each (1.03x
+    # the benchmark step at one environment, 1.015x at 64; docs/benchmarks.md).
+    only = lambda name: jnp.asarray(np.arange(NUM_FUNCTIONS) == FUNCTIONS[name].id)  # noqa: E731
+    # UI functions by the selection. `build_queue` is available while the production
+    # panel shows (a single selected unit that is training).
+    for name, value in {"select_unit": count > 1, "select_army": army_count(units) > 0,
+                        "select_idle_worker": idle_worker_count(units) > 0,
+                        "build_queue": (count == 1) & training.any()}.items():
+        mask = jnp.where(only(name), value, mask)
+    # Buttons that show only when they apply.
+    for name, condition in {"Harvest_Return_quick": carrying.any(),
+                            "Cancel_Last_quick": training.any(),
+                            "Build_Barracks_screen": depot}.items():
+        mask = mask & (~only(name) | condition)
+    return mask

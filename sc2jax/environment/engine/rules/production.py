@@ -1,0 +1,514 @@
+"""Production: supply, training queues, and structures that SCVs place and construct.
+
+The Terran rules of the economy mini-games (reference/pysc2_facts.md §7), vectorised over
+the N unit slots:
+
+- **Supply.** Complete Command Centers provide 15 food and complete Supply Depots 8 (at
+  most 200). Food used counts the living units and the units in training.
+- **Training.** `Train_SCV` (Command Center) and `Train_Marine` (Barracks) pay the cost
+  when queued (`enqueue`); a queue holds 5. The first unit of a queue trains once the
+  supply allows it (else it waits), for its build time, and appears beside the producer,
+  on the side of the rally point; it walks to the rally, and a new SCV rallied to a
+  resource gathers from it. Cancelling a queued unit refunds its cost.
+- **Construction.** An SCV told to build walks to the site; on arrival the site is checked
+  again (placement, cost, tech), the structure appears with 10% of its health and the
+  cost is paid, and the SCV constructs it, standing at its edge, for the build time
+  while the health grows to full. A structure whose SCV leaves waits unfinished until an
+  SCV resumes it. Cancelling an unfinished structure refunds 75% of its cost.
+- **Placement.** The footprint (`UnitData.footprint`, snapped to the cell grid) must lie on
+  buildable cells and must not overlap another structure or resource footprint (own units
+  standing there are pushed aside); a Command Center also keeps 3 cells away from
+  resources; a Refinery goes on a free Vespene Geyser, which it replaces.
+- **Tech.** The Barracks needs a complete Supply Depot.
+
+The map's creation of units goes through free (dead) slots; with none free, a trained
+unit waits in the queue and a structure is not placed (docs/fidelity.md).
+"""
+
+from __future__ import annotations
+
+from typing import NamedTuple
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+
+from sc2jax.environment.engine.rules import commands
+from sc2jax.environment.engine.rules.dynamics import pop_order
+from sc2jax.environment.engine.rules.geometry import squared_length
+from sc2jax.environment.engine.rules.state import (
+    BUILD_QUEUE,
+    NO_TARGET,
+    Order,
+    Owner,
+    Units,
+    first_slots,
+    place_where,
+    targeted_by,
+)
+from sc2jax.environment.engine.rules.units import UNIT_DATA, UnitType
+from sc2jax.environment.engine.xla.lazy import lazy_where
+from sc2jax.environment.interface.protocol_enums import ActionResult
+
+MAX_SUPPLY = 200
+START_HEALTH = 0.1
+"""The share of its health a structure starts construction with."""
+CANCEL_REFUND = 0.75
+"""The share of its cost an unfinished structure refunds when cancelled."""
+RESOURCE_CLEARANCE = 3
+"""Cells a Command Center's footprint keeps from mineral fields and geysers."""
+
+TRAINS = {UnitType.COMMAND_CENTER: UnitType.SCV, UnitType.BARRACKS: UnitType.MARINE}
+"""Producer type -> the unit type it trains."""
+BUILDS = (UnitType.SUPPLY_DEPOT, UnitType.BARRACKS, UnitType.REFINERY, UnitType.COMMAND_CENTER)
+"""The structures an SCV builds."""
+REQUIRES = {UnitType.BARRACKS: UnitType.SUPPLY_DEPOT}
+"""Structure -> the complete structure it needs."""
+
+_TRAINED = np.zeros(len(UnitType), np.int32)
+for _producer, _unit in TRAINS.items():
+    _TRAINED[_producer] = _unit
+_REQUIRED = np.zeros(len(UnitType), np.int32)
+for _structure, _needed in REQUIRES.items():
+    _REQUIRED[_structure] = _needed
+
+
+def _column(name, types):
+    return jnp.asarray(getattr(UNIT_DATA, name))[types]
+
+
+def _own(units: Units):
+    return units.alive & (units.owner == Owner.SELF)
+
+
+def food_cap(units: Units):
+    """int32: the supply the player's complete structures provide (at most 200)."""
+    supply = jnp.sum(jnp.where(_own(units) & units.complete, _column("supply", units.type), 0))
+    return jnp.minimum(supply, MAX_SUPPLY).astype(jnp.int32)
+
+
+def food_used(units: Units):
+    """float32: the food of the player's living units and of the units in training."""
+    own = _own(units)
+    living = jnp.sum(jnp.where(own, _column("food", units.type), 0.0))
+    training = jnp.sum(jnp.where(own & (units.queue_work > 0),
+                                 _column("food", units.queue[:, 0]), 0.0))
+    return living + training
+
+
+def has_structure(units: Units, unit_type):
+    """bool: the player has a complete structure of `unit_type` (int32)."""
+    return jnp.any(_own(units) & units.complete & (units.type == unit_type))
+
+
+def tech_ok(units: Units, unit_type):
+    """bool: the tech requirement of building `unit_type` (int32) is met."""
+    needed = jnp.asarray(_REQUIRED)[unit_type]
+    return (needed == 0) | has_structure(units, needed)
+
+
+MIN_BUILD_LOOPS = int(UNIT_DATA.build_time[UNIT_DATA.build_time > 0].min())
+"""The shortest build time, in game loops (an SCV's)."""
+
+
+def creators(units: Units):
+    """bool[N]: the units that can create one, and only one, unit within `MIN_BUILD_LOOPS`
+    game loops with no new action: producers (one unit per build time) and SCVs with a
+    Build order (they place one structure, then construct it for its build time)."""
+    builds = jnp.any(units.orders == Order.BUILD, axis=1)
+    return _own(units) & ((trained_type(units) != 0) | builds)
+
+
+def trained_type(units: Units):
+    """int32[N]: the unit type each slot trains (0 for non-producers)."""
+    return jnp.asarray(_TRAINED)[units.type]
+
+
+def snap(unit_type, point):
+    """float32[2]: the site of a structure placed at `point`: the footprint's centre on
+    the cell grid (x.5 for odd widths, whole numbers for even ones)."""
+    size = _column("footprint", unit_type).astype(jnp.float32)
+    half = size / 2
+    return jnp.floor(point - half + 0.5) + half
+
+
+def _rect_overlap(centre, size, others, other_size):
+    """bool[M]: the rectangle (centre float32[2], size float32[2]) overlaps each other
+    rectangle (float32[M, 2] centres, float32[M, 2] sizes)."""
+    gap = jnp.abs(others - centre) - (size + other_size) / 2
+    return jnp.all(gap < -1e-4, axis=-1)
+
+
+def placement(units: Units, buildable, unit_type, site, target=NO_TARGET):
+    """Whether a structure fits at a site.
+
+    Args:
+      units: the units.
+      buildable: bool[H, W] the map's buildable cells, row 0 at the top.
+      unit_type: int32 the structure.
+      site: float32[2] its snapped centre.
+      target: int32 the geyser slot a Refinery is built on.
+
+    Returns:
+      int32 `ActionResult`: 0 if it fits, else why not.
+    """
+    n = units.num_slots
+    h, w = buildable.shape
+    size = _column("footprint", unit_type).astype(jnp.float32)
+    # Every cell of the footprint (at most 5 x 5) must be buildable.
+    offsets = jnp.arange(5, dtype=jnp.float32)
+    xs = site[0] - size[0] / 2 + 0.5 + offsets
+    ys = site[1] - size[1] / 2 + 0.5 + offsets
+    used = (offsets[:, None] < size[1]) & (offsets[None, :] < size[0])
+    cols = jnp.floor(xs).astype(jnp.int32)
+    rows = h - 1 - jnp.floor(ys).astype(jnp.int32)
+    inside = (((rows >= 0) & (rows < h))[:, None] & ((cols >= 0) & (cols < w))[None, :])
+    cells = jnp.asarray(buildable)[jnp.clip(rows, 0, h - 1)[:, None],
+                                   jnp.clip(cols, 0, w - 1)[None, :]]
+    on_ground = jnp.all(~used | (inside & cells))
+
+    other_size = _column("footprint", units.type).astype(jnp.float32)
+    blocks = units.alive & (other_size[:, 0] > 0)
+    overlap = jnp.any(blocks & _rect_overlap(site, size, units.pos, other_size))
+    resource = units.alive & (_column("contents", units.type) > 0)
+    clearance = jnp.where(unit_type == UnitType.COMMAND_CENTER, 2 * RESOURCE_CLEARANCE, 0)
+    too_close = jnp.any(resource & _rect_overlap(site, size + clearance, units.pos, other_size))
+
+    geyser = jnp.clip(target, 0, n - 1)
+    free_geyser = ((target >= 0) & units.alive[geyser]
+                   & (units.type[geyser] == UnitType.VESPENE_GEYSER))
+    refinery = unit_type == UnitType.REFINERY
+    ground_result = jnp.where(~on_ground, int(ActionResult.CantBuildLocationInvalid),
+                              jnp.where(overlap, int(ActionResult.CantFindPlacementLocation),
+                                        jnp.where(too_close,
+                                                  int(ActionResult.CantBuildTooCloseToResources),
+                                                  0)))
+    return jnp.where(refinery, jnp.where(free_geyser, 0, int(ActionResult.CantTargetThatUnit)),
+                     ground_result).astype(jnp.int32)
+
+
+def affordable(minerals, unit_type):
+    """int32 `ActionResult`: 0, or NotEnoughMinerals."""
+    return jnp.where(minerals >= _column("mineral_cost", unit_type), 0,
+                     int(ActionResult.NotEnoughMinerals)).astype(jnp.int32)
+
+
+def free_slots(units: Units, count: int):
+    """int32[count]: the first `count` dead slots, ascending; N where there are fewer."""
+    return first_slots(~units.alive, count)
+
+
+class Economy(NamedTuple):
+    """The player's side of a loop of production.
+
+    Attributes:
+      units: the units.
+      minerals: int32 the player's minerals.
+      next_tag: int32 the next unit tag.
+      spent: int32 minerals spent this loop on structures.
+      created: bool[N] slots where a unit was trained or a structure placed this loop.
+    """
+
+    units: Units
+    minerals: jax.Array
+    next_tag: jax.Array
+    spent: jax.Array
+    created: jax.Array
+
+
+def enqueue(units: Units, minerals, unit_type):
+    """`Train_*`: queues one unit of `unit_type` at the selected producer of it with the
+    shortest queue, paying its cost.
+
+    Returns:
+      (units, minerals, result int32 `ActionResult`).
+    """
+    q = jnp.arange(BUILD_QUEUE)
+    length = jnp.sum(units.queue != 0, axis=1)
+    producer = (units.selected & _own(units) & units.complete
+                & (trained_type(units) == unit_type))
+    room = producer & (length < BUILD_QUEUE)
+    slot = jnp.argmin(jnp.where(room, length, BUILD_QUEUE + 1))
+    food = _column("food", unit_type)
+    result = jnp.where(
+        ~producer.any(), int(ActionResult.Error),
+        jnp.where(~room.any(), int(ActionResult.QueueIsFull),
+                  jnp.where(affordable(minerals, unit_type) != 0,
+                            int(ActionResult.NotEnoughMinerals),
+                            jnp.where(food_used(units) + food > food_cap(units),
+                                      int(ActionResult.NotEnoughFood), 0)))).astype(jnp.int32)
+    ok = result == 0
+    at = ok & (jnp.arange(units.num_slots)[:, None] == slot) & (q[None, :] == length[slot])
+    units = units.replace(queue=jnp.where(at, unit_type, units.queue))
+    return units, minerals - jnp.where(ok, _column("mineral_cost", unit_type), 0), result
+
+
+def order_build(units: Units, minerals, buildable, unit_type, point, picked, queued):
+    """`Build_*`: the selected SCV nearest the site is ordered to build `unit_type` there.
+
+    The site is `point` snapped to the grid, or for a Refinery the geyser `picked` (the
+    slot under the click). Cost, placement and tech are checked now, and again when the
+    SCV arrives.
+
+    Args:
+      units: the units.
+      minerals: int32 the player's minerals.
+      buildable: bool[H, W] the map's buildable cells.
+      unit_type: int32 the structure.
+      point: float32[2] the clicked world point.
+      picked: int32 the slot drawn at the click, or -1.
+      queued: int32 0 (now) or 1 (queued).
+
+    Returns:
+      (units, result int32 `ActionResult`).
+    """
+    n = units.num_slots
+    refinery = unit_type == UnitType.REFINERY
+    site = jnp.where(refinery, units.pos[jnp.clip(picked, 0, n - 1)], snap(unit_type, point))
+    target = jnp.where(refinery, picked, NO_TARGET)
+    builders = units.selected & _own(units) & (units.type == UnitType.SCV)
+    distance = squared_length(units.pos - site)
+    builder = jnp.argmin(jnp.where(builders, distance, jnp.inf))
+    placed = placement(units, buildable, unit_type, site, target)
+    result = jnp.where(~builders.any(), int(ActionResult.Error), jnp.where(
+        ~tech_ok(units, unit_type), int(ActionResult.TechRequirementsNotMet),
+        jnp.where(affordable(minerals, unit_type) != 0, int(ActionResult.NotEnoughMinerals),
+                  placed))).astype(jnp.int32)
+    one = units.replace(selected=jnp.arange(n) == builder)
+    ordered, _ = commands.issue(one, Order.BUILD, queued, site, target, unit_type)
+    ordered = ordered.replace(selected=units.selected)
+    return jax.tree_util.tree_map(lambda a, b: jnp.where(result == 0, a, b), ordered,
+                                  units), result
+
+
+def set_rally(units: Units, point, picked):
+    """`Rally_*` (and `Smart` for producers): the selected producers rally to `point`,
+    or to the resource or unit `picked` (int32 slot, or -1).
+
+    Returns:
+      (units, ok bool).
+    """
+    producers = units.selected & _own(units) & (trained_type(units) != 0)
+    return units.replace(
+        rally=jnp.where(producers[:, None], point, units.rally),
+        rally_unit=jnp.where(producers, picked, units.rally_unit),
+        rallied=units.rallied | producers), producers.any()
+
+
+def _remove_queued(units: Units, producer, index):
+    """Removes item `index` (int32) from the queue of slot `producer` (int32); returns
+    (units, the removed type)."""
+    row = units.queue[producer]
+    removed = row[index]
+    q = jnp.arange(BUILD_QUEUE)
+    shifted = jnp.where(q >= index, jnp.concatenate([row[1:], jnp.zeros(1, jnp.int32)]), row)
+    work = jnp.where(index == 0, 0.0, units.queue_work[producer])
+    return units.replace(queue=units.queue.at[producer].set(shifted),
+                         queue_work=units.queue_work.at[producer].set(work)), removed
+
+
+def cancel_queued(units: Units, minerals, index=None):
+    """`Cancel_Last` (index None: the last unit of the selected producer with the longest
+    queue) or the `build_queue` panel (the unit at `index` of the single selected
+    producer's queue); refunds its cost.
+
+    Returns:
+      (units, minerals, result int32 `ActionResult`).
+    """
+    length = jnp.sum(units.queue != 0, axis=1)
+    chosen = units.selected & _own(units) & (length > 0)
+    producer = jnp.argmax(jnp.where(chosen, length, -1))
+    item = length[producer] - 1 if index is None else index
+    ok = chosen.any() & (item >= 0) & (item < length[producer])
+    new, removed = _remove_queued(units, producer, jnp.clip(item, 0, BUILD_QUEUE - 1))
+    units = jax.tree_util.tree_map(lambda a, b: jnp.where(ok, a, b), new, units)
+    refund = jnp.where(ok, _column("mineral_cost", removed), 0)
+    return units, minerals + refund, jnp.where(ok, 0, int(ActionResult.Error)).astype(jnp.int32)
+
+
+def cancel_construction(units: Units, minerals, next_tag):
+    """`Cancel` on the selected unfinished structures: they are removed and refund 75%
+    of their cost; a cancelled Refinery gives its geyser back.
+
+    Returns:
+      (units, minerals, next_tag, result int32 `ActionResult`).
+    """
+    doomed = units.selected & _own(units) & ~units.complete
+    refund = jnp.sum(jnp.where(doomed, jnp.floor(
+        CANCEL_REFUND * _column("mineral_cost", units.type)), 0)).astype(jnp.int32)
+    refineries = doomed & (units.type == UnitType.REFINERY)
+    units = units.replace(alive=units.alive & ~doomed, selected=units.selected & ~doomed)
+    # The geysers come back in the Refineries' own slots (tagged as if every slot got
+    # one).
+    rows = jnp.arange(units.num_slots, dtype=jnp.int32)
+    geysers = place_where(units, refineries, UnitType.VESPENE_GEYSER, Owner.NEUTRAL,
+                          units.pos, next_tag + rows)
+    tag = next_tag + units.num_slots
+    contents = jnp.where(refineries, units.contents, geysers.contents)
+    return (geysers.replace(contents=contents), minerals + refund, tag,
+            jnp.where(doomed.any(), 0, int(ActionResult.Error)).astype(jnp.int32))
+
+
+def production_loop(units: Units, minerals, next_tag, buildable) -> Economy:
+    """One game loop of production, after the loop's movement: structures placed by
+    arriving SCVs, construction, and training.
+
+    Args:
+      units: the units.
+      minerals: int32 the player's minerals.
+      next_tag: int32 the next unit tag.
+      buildable: bool[H, W] the map's buildable cells.
+    """
+    units, minerals, next_tag, spent, placed = _place_arrivals(units, minerals, next_tag,
+                                                               buildable)
+    units = _construct(units)
+    units, next_tag, trained = _train(units, next_tag)
+    return Economy(units, minerals, next_tag, spent, placed | trained)
+
+
+def _place_arrivals(units: Units, minerals, next_tag, buildable):
+    """The first (lowest-slot) SCV to reach its BUILD site places its structure, if the
+    site, the cost, the tech and a free slot allow; otherwise its order fails. One
+    placement per loop: a second builder re-checks its site a loop later.
+
+    Returns:
+      (units, minerals, next_tag, spent, placed bool[N] the new structure's slot).
+    """
+    n = units.num_slots
+    rows = jnp.arange(n)
+    kind = units.order_type[:, 0]
+    site = units.order_pos[:, 0]
+    reach = _column("radius", kind) + _column("radius", units.type) + 0.1
+    arrived = (_own(units) & (units.orders[:, 0] == Order.BUILD)
+               & (jnp.sqrt(squared_length(units.pos - site)) <= reach))
+    builder = jnp.argmax(arrived)
+    kind_b, site_b, geyser = kind[builder], site[builder], units.order_unit[builder, 0]
+    slot = free_slots(units, 1)[0]
+    ok = (arrived.any() & (placement(units, buildable, kind_b, site_b, geyser) == 0)
+          & (affordable(minerals, kind_b) == 0) & tech_ok(units, kind_b) & (slot < n))
+    cost = jnp.where(ok, _column("mineral_cost", kind_b), 0)
+    # The structure, unfinished; a Refinery replaces its geyser and takes its gas.
+    safe_geyser = jnp.clip(geyser, 0, n - 1)
+    new = place_where(units, ok & (rows == slot), kind_b, Owner.SELF, site_b, next_tag)
+    is_refinery = kind_b == UnitType.REFINERY
+    new = new.replace(
+        progress=new.progress.at[slot].set(0.0, mode="drop"),
+        health=new.health.at[slot].multiply(START_HEALTH, mode="drop"),
+        contents=new.contents.at[slot].set(
+            jnp.where(is_refinery, units.contents[safe_geyser], 0.0), mode="drop"),
+        alive=new.alive & ~(ok & is_refinery & (rows == safe_geyser)))
+    # The builder steps to the structure's edge and constructs it.
+    away = units.pos[builder] - site_b
+    away = jnp.where(jnp.sum(away * away) > 1e-8, away, jnp.array([0.0, -1.0]))
+    edge = site_b + away / jnp.sqrt(jnp.sum(away * away)) * (
+        _column("radius", kind_b) + _column("radius", units.type[builder]))
+    is_builder = rows == builder
+    new = new.replace(
+        pos=jnp.where(is_builder[:, None], edge, new.pos),
+        orders=new.orders.at[builder, 0].set(Order.CONSTRUCT),
+        order_unit=new.order_unit.at[builder, 0].set(slot))
+    units = jax.tree_util.tree_map(lambda a, b: jnp.where(ok, a, b), new, units)
+    failed = arrived & is_builder & ~ok
+    units = pop_order(units, failed)
+    return units, minerals - cost, next_tag + ok.astype(jnp.int32), cost, ok & (rows == slot)
+
+
+def _construct(units: Units) -> Units:
+    """Unfinished structures with an SCV constructing them at their edge advance a loop
+    and gain health; SCVs whose structure is finished (or gone) stop."""
+    n = units.num_slots
+    target = units.order_unit[:, 0]
+    safe = jnp.clip(target, 0, n - 1)
+    constructing = _own(units) & (units.orders[:, 0] == Order.CONSTRUCT)
+    gap = (jnp.sqrt(squared_length(units.pos - units.pos[safe]))
+           - _column("radius", units.type) - _column("radius", units.type[safe]))
+    working = constructing & (target >= 0) & (gap <= 0.2)
+    worked = jnp.any(targeted_by(safe, n) & working[:, None], axis=0)
+    build_time = _column("build_time", units.type)
+    advancing = worked & units.alive & (units.progress < build_time)
+    gain = (1.0 - START_HEALTH) * _column("max_health", units.type) / jnp.maximum(build_time, 1)
+    units = units.replace(
+        progress=jnp.where(advancing, units.progress + 1.0, units.progress),
+        health=jnp.where(advancing, jnp.minimum(units.health + gain,
+                                                 _column("max_health", units.type)),
+                         units.health))
+    finished = constructing & ((target < 0) | ~units.alive[safe]
+                               | (units.progress[safe] >= build_time[safe]))
+    return pop_order(units, finished)
+
+
+def _train(units: Units, next_tag):
+    """Queue heads train while the supply allows; finished units appear beside their
+    producer and follow its rally.
+
+    Returns:
+      (units, next_tag, trained bool[N] the new units' slots).
+    """
+    n = units.num_slots
+    head = units.queue[:, 0]
+    producing = _own(units) & units.complete & (head != 0)
+    food = _column("food", head)
+    # Heads not yet started take the free supply in slot order.
+    started = producing & (units.queue_work > 0)
+    waiting = producing & ~started
+    free = food_cap(units) - food_used(units)
+    claimed = jnp.cumsum(jnp.where(waiting, food, 0.0))
+    active = started | (waiting & (claimed <= free))
+    work = jnp.where(active, units.queue_work + 1.0, units.queue_work)
+    done = active & (work >= _column("build_time", head))
+    # Units finish rarely: the spawning is computed only in loops where one does.
+    return lazy_where(done.any(), lambda args: _spawn(*args), (units, next_tag, done, work),
+                      (units.replace(queue_work=work), next_tag, jnp.zeros(n, bool)))
+
+
+def _spawn(units: Units, next_tag, done, work):
+    """`_train`'s finished units (bool[N] `done`, by producer) appear beside their
+    producers; `work` (float32[N]) is the producers' queue work this loop.
+
+    Returns:
+      (units, next_tag, trained bool[N] the new units' slots).
+    """
+    n = units.num_slots
+    head = units.queue[:, 0]
+    # Each finished unit takes the next free slot (the k-th finished producer the k-th
+    # dead slot); without one it waits. Matched over [producer, slot] pairs and written
+    # by selects, not scatters (`place_where`).
+    rank = jnp.cumsum(done, dtype=jnp.int32) - 1
+    dead = ~units.alive
+    dead_rank = jnp.cumsum(dead, dtype=jnp.int32) - 1
+    spawns = done & (rank < jnp.sum(dead, dtype=jnp.int32))
+    pairs = spawns[:, None] & dead[None, :] & (rank[:, None] == dead_rank[None, :])
+    filled = pairs.any(axis=0)
+    producer = jnp.argmax(pairs, axis=0)  # [N]: the producer of each filled slot
+    radius = _column("radius", units.type) + _column("radius", head)
+    to_rally = units.rally - units.pos
+    length = jnp.sqrt(squared_length(to_rally))
+    towards = jnp.where((units.rallied & (length > 1e-4))[:, None],
+                        to_rally / jnp.maximum(length, 1e-4)[:, None], jnp.array([0.0, -1.0]))
+    spawn_pos = units.pos + towards * radius[:, None]
+    # Tags in production order.
+    new = place_where(units, filled, head[producer], Owner.SELF, spawn_pos[producer],
+                      next_tag + rank[producer])
+    # Rallies: a new SCV rallied to a resource gathers it, others move to the point.
+    rally_unit = jnp.clip(units.rally_unit, 0, n - 1)
+    to_resource = ((units.rally_unit >= 0) & units.alive[rally_unit]
+                   & (units.contents[rally_unit] > 0) & (head == UnitType.SCV))
+    order = jnp.where(units.rallied, jnp.where(to_resource, Order.GATHER, Order.MOVE),
+                      Order.NONE)
+    head_of_queue = filled[:, None] & (jnp.arange(new.orders.shape[1]) == 0)  # [N, Q]
+
+    def first_order(old, value):  # old [N, Q, ...] with value [N, ...] first where filled
+        where = head_of_queue.reshape(head_of_queue.shape + (1,) * (old.ndim - 2))
+        return jnp.where(where, value[:, None], old)
+
+    new = new.replace(
+        orders=first_order(new.orders, order[producer]),
+        order_pos=first_order(new.order_pos, units.rally[producer]),
+        order_unit=first_order(new.order_unit,
+                               jnp.where(to_resource, units.rally_unit, NO_TARGET)[producer]),
+        patrol_origin=jnp.where(filled[:, None], spawn_pos[producer], new.patrol_origin))
+    queue = jnp.where(spawns[:, None], jnp.concatenate(
+        [units.queue[:, 1:], jnp.zeros((n, 1), jnp.int32)], axis=1), units.queue)
+    new = new.replace(queue=queue, queue_work=jnp.where(spawns, 0.0, jnp.where(
+        done, work - 1.0, work)))
+    return new, next_tag + jnp.sum(spawns, dtype=jnp.int32), filled

@@ -1,0 +1,98 @@
+"""The game's score: `score_cumulative` bookkeeping and the Blizzard score.
+
+`score_cumulative` (observation_tables.ScoreCumulative) is kept in `EnvState`: index 0 is
+the map's curriculum score (`EnvState.score`); the rest follow the game's definitions:
+
+- collected_minerals / collected_vespene: resources the player's workers deposited;
+- collection_rate_minerals / _vespene: the current income per real minute at Faster speed
+  (1344 game loops), a moving average over about 10 game seconds;
+- spent_minerals / spent_vespene: paid for units and structures, less refunds;
+- total_value_units / total_value_structures: the cost of the player's living units
+  and structures (unfinished ones included);
+- killed_value_units: the cost of the enemy units killed;
+- idle_worker_time / idle_production_time: game loops summed over idle SCVs and over
+  complete producers (Command Centers, Barracks) with an empty queue.
+
+The **Blizzard score** is the paper's (§3): the resources the player has, plus the value of
+its units and structures alive or in progress (units queued for training included), plus
+upgrades researched (none on these maps).
+"""
+
+from __future__ import annotations
+
+import jax.numpy as jnp
+import numpy as np
+
+from sc2jax.environment.engine.rules.production import trained_type
+from sc2jax.environment.engine.rules.state import EnvState, Owner, Units
+from sc2jax.environment.engine.rules.units import UNIT_DATA, Attribute
+from sc2jax.environment.engine.xla.fusion import set_static
+from sc2jax.environment.interface.observation_tables import ScoreCumulative as C
+
+LOOPS_PER_RATE_MINUTE = 22.4 * 60
+"""Game loops per real minute at Faster speed: the unit of the collection rates."""
+RATE_SMOOTHING = 1.0 / 160.0
+"""The moving average's weight per loop (a time constant of 10 game seconds)."""
+
+_VALUE = (UNIT_DATA.mineral_cost + UNIT_DATA.vespene_cost).astype(np.int32)
+_STRUCTURE = (UNIT_DATA.attributes & Attribute.STRUCTURE) > 0
+
+
+def values(units: Units):
+    """(units, structures, queued) int32: the cost of the player's living units, of its
+    structures, and of the units in its training queues."""
+    own = units.alive & (units.owner == Owner.SELF)
+    value = jnp.asarray(_VALUE)
+    worth = value[units.type]
+    structure = jnp.asarray(_STRUCTURE)[units.type]
+    queued = jnp.sum(jnp.where(own[:, None] & (units.queue != 0), value[units.queue], 0))
+    return (jnp.sum(jnp.where(own & ~structure, worth, 0)),
+            jnp.sum(jnp.where(own & structure, worth, 0)), queued)
+
+
+def blizzard_score(state: EnvState):
+    """int32: resources plus the value of units and structures alive or in progress."""
+    unit_value, structure_value, queued = values(state.units)
+    return (state.minerals + state.vespene + unit_value + structure_value
+            + queued).astype(jnp.int32)
+
+
+def after_loop(state: EnvState, old_units: Units, died, minerals, vespene, spent):
+    """The score after one game loop.
+
+    Args:
+      state: the state after the loop (units and resources updated).
+      old_units: the units before the loop (to value the enemies that died).
+      died: bool[N] units that died in the loop.
+      minerals, vespene: float32 resources deposited in the loop.
+      spent: int32 minerals spent in the loop.
+
+    Returns:
+      The state with `score_cumulative` and `collection_rate` updated.
+    """
+    units = state.units
+    enemy_died = died & (old_units.owner == Owner.ENEMY)
+    killed = jnp.sum(jnp.where(enemy_died, jnp.asarray(_VALUE)[old_units.type], 0))
+    own = units.alive & (units.owner == Owner.SELF)
+    idle_workers = jnp.sum(units.idle_workers)
+    idle_producers = jnp.sum(units.complete & own & (trained_type(units) != 0)
+                             & (units.queue[:, 0] == 0))
+    income = jnp.stack([minerals, vespene]) * LOOPS_PER_RATE_MINUTE
+    rate = state.collection_rate + (income - state.collection_rate) * RATE_SMOOTHING
+    old = state.score_cumulative
+    added = {C.killed_value_units: killed, C.collected_minerals: minerals.astype(jnp.int32),
+             C.collected_vespene: vespene.astype(jnp.int32), C.spent_minerals: spent,
+             C.idle_worker_time: idle_workers, C.idle_production_time: idle_producers}
+    cumulative = set_static(old, {
+        **{int(i): old[i] + v for i, v in added.items()},
+        int(C.collection_rate_minerals): jnp.round(rate[0]).astype(jnp.int32),
+        int(C.collection_rate_vespene): jnp.round(rate[1]).astype(jnp.int32)})
+    return state.replace(score_cumulative=cumulative, collection_rate=rate)
+
+
+def after_step(state: EnvState) -> EnvState:
+    """Sets the unit and structure values at the end of an agent step."""
+    unit_value, structure_value, _ = values(state.units)
+    return state.replace(score_cumulative=state.score_cumulative
+                         .at[C.total_value_units].set(unit_value)
+                         .at[C.total_value_structures].set(structure_value))

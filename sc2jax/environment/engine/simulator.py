@@ -1,0 +1,378 @@
+"""The simulator: pure, jittable `reset` and `step` for one mini-game.
+
+    sim = Simulator("MoveToBeacon")
+    state, timestep = sim.reset(jax.random.PRNGKey(0))
+    state, timestep = sim.step(state, dense_action)
+
+`step` applies the action, runs `step_mul` game loops in `lax.scan` (16 loops per game
+second), and observes. A step from a state whose last timestep was LAST starts a new
+episode instead and returns FIRST, as dm_env (and PySC2) do. Batch with `jax.vmap`.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import functools
+
+import dm_env
+import jax
+import jax.numpy as jnp
+import numpy as np
+from flax import struct
+
+from sc2jax.environment.engine.actions import apply_action
+from sc2jax.environment.engine.availability import CARD_TABLE
+from sc2jax.environment.engine.minigames import get_map
+from sc2jax.environment.engine.observation import observe
+from sc2jax.environment.engine.render import Renderer, sight_grid
+from sc2jax.environment.engine.rules import production, score
+from sc2jax.environment.engine.rules.dynamics import facing_of, game_loop, turned
+from sc2jax.environment.engine.rules.state import (
+    NUM_SCORE_CUMULATIVE,
+    EnvState,
+    Outcome,
+    leading_slots,
+    slots_in_use,
+)
+from sc2jax.environment.engine.xla import threefry
+from sc2jax.environment.engine.xla.fusion import set_static
+from sc2jax.environment.engine.xla.lazy import lazy_where, smallest_fit
+from sc2jax.environment.interface import specs
+from sc2jax.environment.interface.dense import DenseAction, check_dense_action
+
+BLIZZARD_SCORE = -2
+"""`Simulator.score_index` for rewards from the Blizzard score."""
+
+
+@struct.dataclass
+class EnvParams:
+    """Per-environment parameters (vmappable).
+
+    Attributes:
+      game_steps_per_episode: PySC2's episode limit in game loops; reaching it truncates
+        the episode (LAST with the discount kept). 0 means no limit (the mini-games'
+        default: their own timers end them).
+    """
+
+    game_steps_per_episode: jax.Array = dataclasses.field(
+        default_factory=lambda: jnp.int32(0))
+
+
+@dataclasses.dataclass(frozen=True, eq=False)
+class Simulator:
+    """One mini-game with a fixed observation format (a static, hashable config).
+
+    Attributes:
+      map_name: one of `minigames.MAPS`.
+      fmt: the observation format.
+      step_mul: game loops per agent step.
+      score_index: the reward: the change of `score_cumulative[score_index]` (0 is the
+        mini-game score); `BLIZZARD_SCORE` (-2) for the change of the Blizzard score
+        (`score.blizzard_score`); or -1 for the outcome (+1 victory, -1 defeat, 0 tie)
+        at the end.
+      score_multiplier: multiplies every reward.
+      discount: the discount of MID steps (and of truncated LAST steps).
+      allow_cheating_layers: fill the minimap `unit_type` layer.
+      use_slot_sizes: on maps with `slot_sizes` (the economy and wave maps), run the game
+        loops and render the observation on the leading unit slots in use (the
+        default); False runs them on every slot, with the same results, slower (for
+        checks).
+    """
+
+    map_name: str = "MoveToBeacon"
+    fmt: specs.ObservationFormat = specs.ObservationFormat()
+    step_mul: int = 8
+    score_index: int = 0
+    score_multiplier: float = 1.0
+    discount: float = 1.0
+    allow_cheating_layers: bool = False
+    use_slot_sizes: bool = True
+
+    def __post_init__(self):
+        game = get_map(self.map_name)
+        if not isinstance(self.fmt, specs.ObservationFormat):
+            raise ValueError(f"fmt must be an ObservationFormat, got {type(self.fmt).__name__}")
+        if isinstance(self.step_mul, bool) or not isinstance(self.step_mul, int) or not (
+                1 <= self.step_mul <= 10_000):
+            raise ValueError(f"step_mul must be an int in [1, 10000], got {self.step_mul!r}")
+        if not isinstance(self.score_index, int) or not (
+                BLIZZARD_SCORE <= self.score_index < NUM_SCORE_CUMULATIVE):
+            raise ValueError(f"score_index must be -2 (the Blizzard score), -1 (win/loss) or "
+                             f"in [0, {NUM_SCORE_CUMULATIVE - 1}], got {self.score_index!r}")
+        if not isinstance(self.use_slot_sizes, bool):
+            raise ValueError(f"use_slot_sizes must be a bool, got {self.use_slot_sizes!r}")
+        if not 0.0 <= self.discount <= 1.0:
+            raise ValueError(f"discount must be in [0, 1], got {self.discount!r}")
+        object.__setattr__(self, "game", game)
+        object.__setattr__(self, "renderer", Renderer(
+            self.fmt, game.geometry, game.fog, game.max_radius, game.zero_layers,
+            self.allow_cheating_layers, game.own_slots))
+
+    # Specs.
+
+    def observation_spec(self) -> dict:
+        return specs.observation_spec(self.fmt, padded=True)
+
+    def action_spec(self) -> DenseAction:
+        return specs.action_spec(self.fmt.screen_size, self.fmt.minimap_size)
+
+    @property
+    def card_table(self) -> np.ndarray:
+        return getattr(self.game, "card_table", CARD_TABLE)
+
+    # The functional API.
+
+    def default_params(self) -> EnvParams:
+        return EnvParams()
+
+    def reset(self, key, params: EnvParams | None = None):
+        """Starts an episode. Returns (state, TimeStep) with step_type FIRST."""
+        del params
+        state = self._initial_state(key)
+        return state, self._timestep(state, jnp.int32(dm_env.StepType.FIRST), jnp.float32(0.0),
+                                     jnp.float32(0.0))
+
+    def step(self, state: EnvState, action: DenseAction, params: EnvParams | None = None,
+             previous: dict | None = None):
+        """Advances one agent step (or starts a new episode after LAST).
+
+        Args:
+          state: the current state.
+          action: an unbatched `DenseAction`.
+          params: the episode parameters.
+          previous: None, or an observation this simulator returned before (the last
+            timestep's, of any episode). The new observation's feature layers are
+            written into its buffers, and the layers that are the same in every
+            observation of this map and format (zero layers; the minimap's terrain, and
+            its visibility on maps without fog) are kept, not written again: in a jitted
+            loop that carries the timestep, XLA then updates them in place. The
+            observation is the same as without it.
+
+        Returns:
+          (state, dm_env.TimeStep of arrays).
+
+        Raises:
+          ValueError: (while tracing) `previous`'s feature layers are not of this
+            simulator's shapes.
+        """
+        self._check_previous(previous)
+        params = self.default_params() if params is None else params
+        over = self.episode_over(state, params)
+        reset_key, _ = threefry.split(state.key)
+        # The auto-reset: a fresh episode, computed only when one starts.
+        new = lazy_where(over, self._initial_state, reset_key, self.advance(state, action))
+        ended = self.episode_over(new, params)
+        terminated = new.outcome != Outcome.RUNNING
+        step_type = jnp.where(over, dm_env.StepType.FIRST,
+                              jnp.where(ended, dm_env.StepType.LAST, dm_env.StepType.MID))
+        reward = jnp.where(over, 0.0, self._reward(state, new, ended)) * self.score_multiplier
+        discount = jnp.where(over | terminated, 0.0, self.discount)
+        return new, self._timestep(new, step_type.astype(jnp.int32), reward.astype(jnp.float32),
+                                   discount.astype(jnp.float32), previous)
+
+    def act(self, state: EnvState, action: DenseAction) -> EnvState:
+        """Applies an action without advancing the game (the SC2 API's `RequestAction`).
+
+        Raises:
+          ValueError: (while tracing, before any compilation) if `action` is not an
+            unbatched `DenseAction` of integer arrays (vmap `step` for a batch).
+        """
+        try:
+            check_dense_action(action, ())
+        except ValueError as error:
+            raise ValueError(f"{error}: Simulator.step and act take one environment's "
+                             "action (jax.vmap them for a batch)") from None
+        return apply_action(state, action, self.renderer, self.card_table,
+                            economy=self.game.has_production)
+
+    def advance(self, state: EnvState, action: DenseAction) -> EnvState:
+        """Applies the action and runs `step_mul` game loops, with no auto-reset: the
+        state part of `step` (the SC2 API's `RequestAction` then `RequestStep`)."""
+        _, step_key = threefry.split(state.key)
+        return self._advance(state.replace(key=step_key), action)
+
+    def episode_over(self, state: EnvState, params: EnvParams):
+        """bool: the episode has ended (a LAST timestep was, or will be, emitted)."""
+        limit = params.game_steps_per_episode
+        truncated = (limit > 0) & (state.game_loop >= limit)
+        return (state.outcome != Outcome.RUNNING) | truncated
+
+    def observe(self, state: EnvState, previous: dict | None = None) -> dict:
+        """The padded observation of a state (`previous`: as in `step`).
+
+        On maps with `slot_sizes`, rendered from the leading slots in use: the slots
+        past the last living unit hold nothing the player can see.
+        """
+        self._check_previous(previous)
+        return self._observe(state, previous)
+
+    def _observe(self, state: EnvState, previous: dict | None) -> dict:
+        """`observe` with `previous` already checked."""
+        layers = None if previous is None else {
+            k: previous[k] for k in ("feature_screen", "feature_minimap")}
+        sizes = self.game.slot_sizes if self.use_slot_sizes else None
+        if sizes is None:
+            return observe(state, self.renderer, self.card_table, layers)
+        return smallest_fit(slots_in_use(state.units.alive), sizes, self._observe_leading,
+                            (state, layers))
+
+    def _observe_leading(self, size: int, operand) -> dict:
+        state, previous = operand
+        units = leading_slots(state.units, size)
+        return observe(state.replace(units=units), self.renderer, self.card_table, previous)
+
+    # Internals.
+
+    def _check_previous(self, previous: dict | None):
+        """Raises ValueError unless `previous` is None or has this simulator's unbatched
+        feature layers."""
+        if previous is None:
+            return
+        spec = self.observation_spec()
+        for key in ("feature_screen", "feature_minimap"):
+            layers = previous.get(key) if isinstance(previous, dict) else None
+            want = spec[key]
+            if (layers is None or tuple(layers.shape) != tuple(want.shape)
+                    or layers.dtype != want.dtype):
+                got = None if layers is None else f"{layers.dtype}{list(layers.shape)}"
+                raise ValueError(f"previous[{key!r}] must be {want.dtype}{list(want.shape)} "
+                                 f"(an unbatched observation of this simulator), got {got}")
+
+    def _timestep(self, state, step_type, reward, discount, previous=None):
+        return dm_env.TimeStep(step_type=step_type, reward=reward, discount=discount,
+                               observation=self._observe(state, previous))
+
+    def _reward(self, old: EnvState, new: EnvState, ended):
+        if self.score_index == -1:  # The outcome.
+            outcome = {Outcome.VICTORY: 1.0, Outcome.DEFEAT: -1.0}
+            value = sum(jnp.where(new.outcome == o, v, 0.0) for o, v in outcome.items())
+            return jnp.where(ended, value, 0.0)
+        return (self._score(new) - self._score(old)).astype(jnp.float32)
+
+    def _score(self, state: EnvState):
+        if self.score_index == BLIZZARD_SCORE:
+            return score.blizzard_score(state)
+        return state.score_cumulative.at[0].set(state.score)[self.score_index]
+
+    def _initial_state(self, key) -> EnvState:
+        init_key, state_key = threefry.split(key)
+        units, map_state, next_tag = self.game.init(init_key)
+        h, w = self.game.geometry.size[1], self.game.geometry.size[0]
+        state = EnvState(
+            units=units, camera=jnp.asarray(self.game.camera, jnp.float32),
+            game_loop=jnp.int32(0), score=jnp.int32(0),
+            score_cumulative=jnp.zeros(NUM_SCORE_CUMULATIVE, jnp.int32),
+            score_by_vital=jnp.zeros((3, 3), jnp.float32),
+            minerals=jnp.int32(self.game.starting_minerals), vespene=jnp.int32(0),
+            collection_rate=jnp.zeros(2, jnp.float32),
+            explored=jnp.zeros((h, w), bool), next_tag=jnp.int32(next_tag),
+            last_action=jnp.int32(-1), action_result=jnp.int32(0),
+            outcome=jnp.int32(Outcome.RUNNING), episode_step=jnp.int32(0),
+            map_state=map_state, key=state_key)
+        return self._explore(state)
+
+    def _advance(self, state: EnvState, action: DenseAction) -> EnvState:
+        state = self.act(state, action)
+        game = self.game
+        buildable = jnp.asarray(game.geometry.buildable)
+
+        def one_loop(carry, _):
+            state, heading = carry
+            running = state.outcome == Outcome.RUNNING
+            key, loop_key = threefry.split(state.key)
+            units, events = game_loop(state.units, loop_key, game.geometry.playable,
+                                      bursts=game.has_bursts, workers=game.has_workers,
+                                      combat=game.has_enemies,
+                                      colliders=game.collider_slots,
+                                      field_slots=game.field_slots,
+                                      team_split=game.team_split,
+                                      jitter_slots=game.num_slots,
+                                      sized=game.slot_sizes is not None, face=False)
+            minerals = state.minerals + events.minerals.astype(jnp.int32)
+            next_tag, spent = state.next_tag, jnp.int32(0)
+            if game.has_production:
+                economy = production.production_loop(units, minerals, next_tag, buildable)
+                units, minerals, next_tag = economy.units, economy.minerals, economy.next_tag
+                spent = economy.spent
+                events = events._replace(created=economy.created)
+            vital = state.score_by_vital.reshape(-1)  # [3, 3]: life dealt, life taken.
+            vital = set_static(vital, {0: vital[0] + events.damage_dealt,
+                                       3: vital[3] + events.damage_taken}).reshape(3, 3)
+            new = state.replace(units=units, key=key, game_loop=state.game_loop + 1,
+                                score_by_vital=vital, minerals=minerals, next_tag=next_tag,
+                                vespene=state.vespene + events.vespene.astype(jnp.int32))
+            new = score.after_loop(new, state.units, events.died, events.minerals,
+                                   events.vespene, spent)
+            new = game.on_loop(new, events)
+            timer = (new.game_loop >= game.time_limit_loops) & (new.outcome == Outcome.RUNNING)
+            new = new.replace(outcome=jnp.where(timer, int(Outcome.VICTORY), new.outcome))
+            frozen = state.replace(game_loop=state.game_loop + 1)
+            new = jax.tree_util.tree_map(lambda a, b: jnp.where(running, a, b), new, frozen)
+            # Each unit's last turn; a slot whose unit was replaced (a new tag) starts
+            # afresh. Facing is set from it after the loops (`dynamics.facing_of`).
+            turns = running & turned(events.heading)
+            heading = jnp.where(turns[:, None], events.heading, heading)
+            heading = jnp.where((new.units.tag == state.units.tag)[:, None], heading, 0.0)
+            return (new, heading), new.units.alive[-1]
+
+        def loops(state: EnvState):
+            """The game loops, and whether the units' last slot stayed free unless it
+            was in use from the start (`_on_leading_slots`)."""
+            start = state.units.alive[-1]
+            (state, heading), last = jax.lax.scan(
+                one_loop, (state, jnp.zeros_like(state.units.pos)), None, length=self.step_mul)
+            units = state.units
+            state = state.replace(units=units.replace(facing=facing_of(heading, units.facing)))
+            return state, ~jnp.any(last) | start
+
+        sizes = self.game.slot_sizes if self.use_slot_sizes else None
+        if sizes is None:
+            state = loops(state)[0]
+        else:
+            state = smallest_fit(self.slots_needed(state.units), sizes,
+                                 functools.partial(_on_leading_slots, loops), state,
+                                 checked=True)
+        state = game.on_step(state)
+        state = score.after_step(state.replace(episode_step=state.episode_step + 1))
+        return self._explore(state)
+
+    def slots_needed(self, units) -> jax.Array:
+        """int32: the leading slots an agent step's game loops are first tried on: those
+        in use, and room for the units the step can create: on maps with production one
+        slot per unit that can create one (`production.creators`; each makes at most
+        one in `production.MIN_BUILD_LOOPS` loops), and the script's `spawn_room`.
+
+        The room is a guess that holds for most steps (a wave can follow another
+        within a step; a long step can train several units), not a bound: a run whose
+        last slot fills is run again on more slots (`_on_leading_slots`)."""
+        need = slots_in_use(units.alive) + self.game.spawn_room
+        if self.game.has_production:
+            need = need + jnp.sum(production.creators(units), dtype=jnp.int32)
+        return need
+
+    def _explore(self, state: EnvState) -> EnvState:
+        """Marks the map cells the player's units see as explored (fog maps only)."""
+        if not self.game.fog:
+            return state
+        w, h = self.game.geometry.size
+        xs = jnp.arange(w, dtype=jnp.float32) + 0.5
+        ys = h - 1 - jnp.arange(h, dtype=jnp.float32) + 0.5
+        return state.replace(explored=state.explored | sight_grid(state.units, xs, ys,
+                                                                    self.game.own_slots))
+
+
+def _on_leading_slots(run, size: int, state: EnvState):
+    """`run(state)` with the state's units cut to their first `size` slots; the other
+    slots are kept as they are (the caller knows they are dead).
+
+    `run` returns (state, fits). The cut run is the whole run where no unit needs a
+    slot past the cut: where one would, every slot of the cut is taken (units are
+    created in the first free slots, and none dies in a loop after its creations), so
+    the last slot fills. `fits` is False where it did, unless it was in use from the
+    start (then the step can create nothing: `Simulator.slots_needed` leaves room).
+    """
+    if size == state.units.num_slots:
+        return run(state)
+    out, fits = run(state.replace(units=leading_slots(state.units, size)))
+    return out.replace(units=jax.tree.map(lambda full, head: full.at[:size].set(head),
+                                          state.units, out.units)), fits

@@ -1,0 +1,62 @@
+"""PySC2's observation layout and the padded layout of batched environments.
+
+The padded layout (`specs.observation_spec(fmt, padded=True)`) gives every observation a
+fixed shape, so that batches stack; PySC2's layout trims variable-length lists to their
+entries and gives `available_actions` as a list of ids.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from sc2jax.environment.interface import specs
+
+_UNIT_ROW_KEYS = ("single_select", "multi_select", "build_queue", "cargo", "feature_units",
+                  "raw_units")
+
+
+def to_pysc2_layout(padded: dict, map_name: str) -> dict:
+    """Converts one padded observation (numpy) to PySC2's layout: variable-length lists
+    trimmed to their entries, `available_actions` as a list of ids, plus `map_name`."""
+    out = dict(padded)
+    for key in _UNIT_ROW_KEYS:
+        if key in out:
+            out[key] = out[key][out[key][:, 0] != 0]
+    for key in ("feature_units", "raw_units"):
+        if key in out:
+            out[key] = out[key].astype(np.int64)
+    out["production_queue"] = out["production_queue"][out["production_queue"][:, 0] != 0]
+    out["last_actions"] = out["last_actions"][out["last_actions"] >= 0]
+    for key in ("action_result", "alerts", "upgrades"):
+        out[key] = out[key][out[key] != 0]
+    out["available_actions"] = np.flatnonzero(out["available_actions"]).astype(np.int32)
+    out["map_name"] = map_name
+    return out
+
+
+def to_padded_layout(obs: dict, fmt: specs.ObservationFormat) -> dict:
+    """Converts one observation in PySC2's layout back to the padded layout (the inverse
+    of `to_pysc2_layout`; `map_name` is dropped), e.g. for the real game's observations
+    in a batch.
+
+    Raises:
+      ValueError: if a list is longer than the padded layout holds.
+    """
+    out = {}
+    for key, spec in specs.observation_spec(fmt, padded=True).items():
+        value = np.asarray(obs[key])
+        if key == "available_actions":
+            mask = np.zeros(spec.shape, bool)
+            mask[value] = True
+            out[key] = mask
+            continue
+        if value.shape != spec.shape:
+            if value.shape[0] > spec.shape[0] or value.shape[1:] != spec.shape[1:]:
+                raise ValueError(f"observation {key!r} of shape {value.shape} does not fit "
+                                 f"the padded shape {spec.shape}")
+            fill = -1 if key == "last_actions" else 0
+            padded = np.full(spec.shape, fill, spec.dtype)
+            padded[:value.shape[0]] = value
+            value = padded
+        out[key] = value.astype(spec.dtype, copy=False)
+    return out

@@ -1,0 +1,328 @@
+"""dm_env environments over the simulator, and `make`.
+
+- `SC2Env`: one environment, PySC2's observation layout, takes a `FunctionCall` (or an
+  unbatched `DenseAction`).
+- `BatchedSC2Env`: `num_envs` environments stepped together in one compiled call, the
+  padded layout with a leading batch dimension, takes a batched `DenseAction` or a list
+  of `FunctionCall`s. Each environment starts a new episode on the step after its LAST
+  timestep (auto-reset). With `num_devices` > 1 the batch is split over that many local
+  devices (`devices.over_devices`), each stepping its share at the same time.
+
+Both hold only a state and a key; all game logic is in `Simulator`.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from typing import Any
+
+import dm_env
+import jax
+import numpy as np
+
+from sc2jax.environment.engine.compiled import compiled, simulator
+from sc2jax.environment.engine.minigames import MAPS, check_map
+from sc2jax.environment.engine.simulator import EnvParams, Simulator
+from sc2jax.environment.interface import specs
+from sc2jax.environment.interface.dense import DenseAction, check_dense_action, to_dense
+from sc2jax.environment.interface.functions import FUNCTIONS, FunctionCall, validate_function_call
+from sc2jax.environment.interface.layout import to_pysc2_layout
+
+
+class _Base(dm_env.Environment):
+
+    def __init__(self, sim: Simulator, seed: int | None, ensure_available_actions: bool,
+                 game_steps_per_episode: int, batched: bool,
+                 devices: tuple[jax.Device, ...] = ()):
+        if seed is not None and (isinstance(seed, bool) or not isinstance(seed, int)):
+            raise ValueError(f"seed must be an int or None, got {seed!r}")
+        if not isinstance(game_steps_per_episode, int) or game_steps_per_episode < 0:
+            raise ValueError(f"game_steps_per_episode must be an int >= 0, got "
+                             f"{game_steps_per_episode!r}")
+        self.simulator = sim
+        self._types = sim.fmt.types
+        self._ensure_available = ensure_available_actions
+        self._params = EnvParams(game_steps_per_episode=np.int32(game_steps_per_episode))
+        seed = np.random.SeedSequence().entropy % (2 ** 31) if seed is None else seed
+        self._key = jax.random.PRNGKey(seed)
+        self._reset_fn, self._step_fn = compiled(sim, batched, devices)
+        self._state = None
+        self._available = None
+
+    def action_spec(self) -> DenseAction:
+        return self.simulator.action_spec()
+
+    def _check_available(self, function_ids: np.ndarray):
+        if not self._ensure_available:
+            return
+        if self._available is None:
+            raise RuntimeError("call reset() before step()")
+        available = np.asarray(self._available).reshape(-1, self._available.shape[-1])
+        for index, fid in enumerate(np.asarray(function_ids).reshape(-1)):
+            if not available[index, fid]:
+                where = f" in environment {index}" if available.shape[0] > 1 else ""
+                raise ValueError(
+                    f"function {fid}/{FUNCTIONS[int(fid)].name} is not available{where}; "
+                    f"available: {np.flatnonzero(available[index]).tolist()}")
+
+
+class SC2Env(_Base):
+    """One mini-game as a `dm_env.Environment` with PySC2's observations and actions.
+
+    Args:
+      sim: the simulator.
+      seed: RNG seed (None: random). The same seed and actions give the same episodes.
+      ensure_available_actions: raise ValueError for an unavailable function (PySC2's
+        default); if False the simulator ignores it and reports it in `action_result`.
+      game_steps_per_episode: PySC2's episode limit in game loops (0: the map's own).
+    """
+
+    def __init__(self, sim: Simulator, seed: int | None = None,
+                 ensure_available_actions: bool = True, game_steps_per_episode: int = 0):
+        super().__init__(sim, seed, ensure_available_actions, game_steps_per_episode, False)
+
+    def observation_spec(self) -> dict:
+        return specs.observation_spec(self.simulator.fmt, padded=False)
+
+    def reset(self) -> dm_env.TimeStep:
+        self._key, key = jax.random.split(self._key)
+        self._state, timestep = self._reset_fn(key, self._params)
+        return self._convert(timestep)
+
+    def step(self, action: FunctionCall | DenseAction) -> dm_env.TimeStep:
+        if self._state is None:
+            return self.reset()
+        dense = self._to_dense(action)
+        if int(self._last_step_type) == dm_env.StepType.LAST:
+            return self.reset()
+        self._check_available(dense.function)
+        self._state, timestep = self._step_fn(self._state, dense, self._params)
+        return self._convert(timestep)
+
+    def _to_dense(self, action) -> DenseAction:
+        if isinstance(action, FunctionCall):
+            return to_dense(validate_function_call(action, self._types), self._types)
+        if isinstance(action, DenseAction):
+            check_dense_action(action, ())
+            dense = DenseAction(*(np.asarray(a, np.int32) for a in action))
+            _check_dense_ranges(dense, self._types)
+            return dense
+        raise TypeError(f"SC2Env.step takes a FunctionCall or a DenseAction, got "
+                        f"{type(action).__name__}")
+
+    def _convert(self, timestep) -> dm_env.TimeStep:
+        timestep = jax.device_get(timestep)
+        self._available = timestep.observation["available_actions"]
+        self._last_step_type = timestep.step_type
+        return dm_env.TimeStep(
+            step_type=dm_env.StepType(int(timestep.step_type)),
+            reward=float(timestep.reward), discount=float(timestep.discount),
+            observation=to_pysc2_layout(timestep.observation, self.simulator.map_name))
+
+
+class BatchedSC2Env(_Base):
+    """`num_envs` environments stepped together; padded observations with a batch dim.
+
+    Args:
+      sim: the simulator.
+      num_envs: the number of environments.
+      seed, ensure_available_actions, game_steps_per_episode: as for `SC2Env`.
+      num_devices: how many of `jax.local_devices()` to split the environments over, each
+        stepping num_envs / num_devices of them (0: all of them). On a CPU, JAX has one
+        device unless asked for more before it starts (`devices.use_cpu_cores`). Each
+        environment's arithmetic is the same on any count, but the split program is
+        compiled for fewer environments and may round differently (`devices`).
+    """
+
+    def __init__(self, sim: Simulator, num_envs: int, seed: int | None = None,
+                 ensure_available_actions: bool = True, game_steps_per_episode: int = 0,
+                 num_devices: int = 1):
+        if isinstance(num_envs, bool) or not isinstance(num_envs, int) or num_envs < 1:
+            raise ValueError(f"num_envs must be a positive int, got {num_envs!r}")
+        devices = _devices_for(num_devices, num_envs)
+        super().__init__(sim, seed, ensure_available_actions, game_steps_per_episode, True,
+                         devices)
+        self.num_envs = num_envs
+        self.devices = devices
+
+    def observation_spec(self) -> dict:
+        """The spec of one environment's padded observation (without the batch dim)."""
+        return specs.observation_spec(self.simulator.fmt, padded=True)
+
+    def reset(self) -> dm_env.TimeStep:
+        self._key, key = jax.random.split(self._key)
+        keys = jax.random.split(key, self.num_envs)
+        self._state, timestep = self._reset_fn(keys, self._params)
+        return self._convert(timestep)
+
+    def step(self, action: DenseAction | Sequence[FunctionCall]) -> dm_env.TimeStep:
+        if self._state is None:
+            return self.reset()
+        dense = self._to_dense(action)
+        self._check_available_unless_last(dense.function)
+        self._state, timestep = self._step_fn(self._state, dense, self._params)
+        return self._convert(timestep)
+
+    def _check_available_unless_last(self, function_ids):
+        # Environments that just ended reset on this step, so their action is unused.
+        ids = np.where(self._last_step_type == dm_env.StepType.LAST, 0, function_ids)
+        self._check_available(ids)
+
+    def _to_dense(self, action: Any) -> DenseAction:
+        if isinstance(action, DenseAction):
+            check_dense_action(action, (self.num_envs,))
+            dense = DenseAction(*(np.asarray(a, np.int32) for a in action))
+            _check_dense_ranges(dense, self._types)
+            return dense
+        if isinstance(action, (list, tuple)) and all(isinstance(a, FunctionCall) for a in action):
+            if len(action) != self.num_envs:
+                raise ValueError(f"expected {self.num_envs} FunctionCalls, got {len(action)}")
+            return to_dense(list(action), self._types)
+        raise TypeError(f"BatchedSC2Env.step takes a DenseAction with batch shape "
+                        f"({self.num_envs},) or a list of FunctionCalls, got "
+                        f"{type(action).__name__}")
+
+    def _convert(self, timestep) -> dm_env.TimeStep:
+        timestep = jax.device_get(timestep)
+        self._available = timestep.observation["available_actions"]
+        self._last_step_type = np.asarray(timestep.step_type)
+        return timestep
+
+
+def _devices_for(num_devices: int, num_envs: int) -> tuple[jax.Device, ...]:
+    """The first `num_devices` local devices (0: all), checked against `num_envs`."""
+    local = jax.local_devices()
+    if (isinstance(num_devices, bool) or not isinstance(num_devices, int)
+            or not 0 <= num_devices <= len(local)):
+        raise ValueError(f"num_devices must be an int in 0..{len(local)} (this process has "
+                         f"{len(local)} {local[0].platform} devices; 0: all), got "
+                         f"{num_devices!r}")
+    devices = tuple(local[:num_devices or len(local)])
+    if num_envs % len(devices):
+        raise ValueError(f"num_envs={num_envs} does not split evenly over {len(devices)} "
+                         f"devices; use a multiple of {len(devices)}")
+    return devices
+
+
+def _check_dense_ranges(action: DenseAction, types) -> None:
+    """Raises ValueError if a dense action's function id or an argument is out of range."""
+    fid = np.asarray(action.function)
+    if np.any((fid < 0) | (fid >= len(FUNCTIONS))):
+        raise ValueError(f"action.function has ids outside 0..{len(FUNCTIONS) - 1}: "
+                         f"{np.unique(fid[(fid < 0) | (fid >= len(FUNCTIONS))]).tolist()}")
+    for t, values in zip(types, action.arguments):
+        values = np.asarray(values)
+        if t.is_point:
+            bad = (values < 0) | (values >= np.asarray(t.sizes))
+        else:
+            bad = (values < 0) | (values >= t.sizes[0])
+        if np.any(bad):
+            allowed = (f"x in 0..{t.sizes[0] - 1}, y in 0..{t.sizes[1] - 1}" if t.is_point
+                       else f"0..{t.sizes[0] - 1}")
+            raise ValueError(f"action.{t.name} has values outside the allowed range "
+                             f"{allowed}: {np.unique(values[bad]).tolist()[:8]}")
+
+
+LADDER_GAME_STEPS = 16 * 60 * 30
+"""PySC2's episode limit on ladder maps: 30 game minutes, in game loops."""
+
+
+def make(map_name: str, screen_size: specs.Size = 64, minimap_size: specs.Size = 64,
+         step_mul: int = 8, num_envs: int | None = None, seed: int | None = None, *,
+         screen_features: Sequence[str] | None = None,
+         minimap_features: Sequence[str] | None = None, use_feature_units: bool = False,
+         use_raw_units: bool = False, max_units: int = 64, score_index: int = 0,
+         score_multiplier: float = 1.0, discount: float = 1.0,
+         ensure_available_actions: bool = True, game_steps_per_episode: int = 0,
+         allow_cheating_layers: bool = False, backend: str = "simulator",
+         sc2path: str | None = None, bot: Any = None,
+         num_devices: int = 1) -> dm_env.Environment:
+    """Creates an environment by map name: the simulator's, or the real game's.
+
+    Args:
+      map_name: a mini-game, e.g. "MoveToBeacon".
+      screen_size, minimap_size: resolutions, an int or (x, y), each in 16..256.
+      step_mul: game loops per agent step.
+      num_envs: None for one `SC2Env`; N for a `BatchedSC2Env` of N environments.
+      seed: RNG seed.
+      screen_features, minimap_features: layer names to render (None: all).
+      use_feature_units, use_raw_units: add the unit lists.
+      max_units: rows of the padded unit lists.
+      score_index, score_multiplier, discount: the reward and discount (see `Simulator`).
+      ensure_available_actions: raise for unavailable functions (else they are no-ops).
+      game_steps_per_episode: PySC2's truncation limit in game loops (0: none).
+      allow_cheating_layers: fill the minimap `unit_type` layer.
+      backend: "simulator" (the embedded default) or "sc2": StarCraft II itself, launched
+        from `sc2path` (default `$SC2PATH`) and driven over its API by a
+        `game_env.GameEnv` with the same observations and actions. The game may be any
+        map it knows (a mini-game name, or a path under its Maps folder).
+      sc2path: the game's install folder (backend "sc2").
+      bot: a `game_env.Bot` opponent (backend "sc2"; e.g. for the full game). On maps
+        other than the mini-games the reward defaults to the outcome (score_index -1)
+        and episodes to PySC2's 30 game minutes (`LADDER_GAME_STEPS`), a tie.
+      num_devices: split a `BatchedSC2Env`'s environments over this many local devices
+        (0: all; see `BatchedSC2Env`). Only with num_envs and the simulator.
+
+    Returns:
+      An `SC2Env` (num_envs None), a `BatchedSC2Env`, or for backend "sc2" a
+      `game_env.GameEnv`.
+
+    Raises:
+      ValueError: for an unknown map or a bad setting, before anything is compiled.
+    """
+    if num_devices != 1 and (num_envs is None or backend != "simulator"):
+        raise ValueError(f"num_devices={num_devices!r} splits a batch of simulator "
+                         f"environments; it needs num_envs and backend='simulator' (got "
+                         f"num_envs={num_envs!r}, backend={backend!r})")
+    if backend == "sc2":
+        return _make_game(map_name, screen_size, minimap_size, step_mul, num_envs, seed,
+                          screen_features, minimap_features, use_feature_units, use_raw_units,
+                          max_units, score_index, score_multiplier, discount,
+                          ensure_available_actions, game_steps_per_episode, sc2path, bot)
+    if backend != "simulator":
+        raise ValueError(f"backend {backend!r} is not allowed; expected 'simulator' or 'sc2'")
+    if bot is not None or sc2path is not None:
+        raise ValueError("bot and sc2path apply to backend='sc2' only")
+    check_map(map_name)
+    fmt = specs.ObservationFormat(
+        screen_size=screen_size, minimap_size=minimap_size,
+        screen_features=None if screen_features is None else tuple(screen_features),
+        minimap_features=None if minimap_features is None else tuple(minimap_features),
+        use_feature_units=use_feature_units, use_raw_units=use_raw_units, max_units=max_units)
+    sim = simulator(map_name, fmt, step_mul, score_index, float(score_multiplier),
+                    float(discount), allow_cheating_layers)
+    if num_envs is None:
+        return SC2Env(sim, seed, ensure_available_actions, game_steps_per_episode)
+    return BatchedSC2Env(sim, num_envs, seed, ensure_available_actions, game_steps_per_episode,
+                         num_devices)
+
+
+def _make_game(map_name, screen_size, minimap_size, step_mul, num_envs, seed, screen_features,
+               minimap_features, use_feature_units, use_raw_units, max_units, score_index,
+               score_multiplier, discount, ensure_available_actions, game_steps_per_episode,
+               sc2path, bot):
+    """`make` for the real game (backend "sc2")."""
+    # Imported here: game_env imports this module.
+    from sc2jax.environment.sc2api.game_env import GameEnv
+    from sc2jax.environment.sc2api.launcher import launch
+
+    if num_envs is not None:
+        raise ValueError(f"backend 'sc2' runs one game per environment; got num_envs="
+                         f"{num_envs!r} (use num_envs=None, and one process per game)")
+    if not isinstance(map_name, str) or not map_name:
+        raise ValueError(f"map_name must be a non-empty str, got {map_name!r}")
+    if map_name in MAPS:
+        map_path = f"mini_games/{map_name}.SC2Map"
+    else:  # A ladder map: PySC2's 30-minute limit, which ends the game in a tie.
+        map_path = map_name if map_name.endswith(".SC2Map") else f"{map_name}.SC2Map"
+        game_steps_per_episode = game_steps_per_episode or LADDER_GAME_STEPS
+    return GameEnv(lambda: launch(sc2path).controller, map_name, map_path=map_path,
+                   screen_size=screen_size, minimap_size=minimap_size,
+                   screen_features=screen_features, minimap_features=minimap_features,
+                   use_feature_units=use_feature_units, use_raw_units=use_raw_units,
+                   max_units=max_units, bot=bot, step_mul=step_mul,
+                   game_steps_per_episode=game_steps_per_episode,
+                   # On other maps the default is PySC2's: the outcome.
+                   score_index=score_index if map_name in MAPS or score_index else -1,
+                   score_multiplier=score_multiplier, discount=discount,
+                   ensure_available_actions=ensure_available_actions, random_seed=seed)

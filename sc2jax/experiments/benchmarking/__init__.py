@@ -1,0 +1,1 @@
+"""The benchmarks' library: timed simulator rollouts, memory planning, the machine's line."""

@@ -1,0 +1,191 @@
+"""`TrainConfig`: every setting of a training run, checked before anything is built.
+
+Defaults follow the paper (§4.3): 64x64 feature layers, step_mul 8, K = 40, entropy
+1e-3 for the function id and each argument, RMSProp with a learning rate annealed
+linearly to half its initial value.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+
+from sc2jax.checks import check_non_negative_int, check_positive_int
+from sc2jax.environment.engine.minigames import check_map
+from sc2jax.environment.interface.specs import ObservationFormat
+from sc2jax.environment.sc2api.game_env import Bot
+from sc2jax.experiments.training.actor import function_mask
+from sc2jax.losses.learner_loss import OFF_POLICY_CORRECTIONS
+from sc2jax.networks.factory import NETWORKS
+
+BACKENDS = ("simulator", "sc2")
+
+
+def _positive_float(name: str, value) -> None:
+    if isinstance(value, bool) or not isinstance(value, (int, float)) or not value > 0:
+        raise ValueError(f"{name} must be a positive number, got {value!r}")
+
+
+@dataclasses.dataclass(frozen=True)
+class TrainConfig:
+    """A training run.
+
+    Attributes:
+      map_name: the mini-game (with backend "sc2", any map the game has).
+      backend: "simulator" (the compiled loop: environments, actors and learner in one
+        program) or "sc2": StarCraft II itself, one game process per environment,
+        stepped by a host actor thread that feeds the learner (the split loop; its
+        policy lags the learner's by up to 2 updates, which V-trace corrects).
+      bot: the built-in AI opponent on the real game, (race, difficulty[, build]) as
+        `game_env.Bot` takes them, e.g. ("terran", "easy") for the paper's full game;
+        None: no opponent (the mini-games).
+      agent: the network: "atari", "fullyconv", "fullyconv_lstm" or "arfullyconv".
+      screen_size, minimap_size: feature-layer resolutions (16..256).
+      screen_features, minimap_features: layer names (None: all of them).
+      functions: restrict the agent's action set to these PySC2 function names (None:
+        all 573, the paper's setting); availability still masks them.
+      step_mul: game loops per agent step.
+      num_envs: environments stepped together (the paper's 64 threads).
+      unroll_length: K, agent steps per trajectory and update.
+      total_steps: agent steps of the run, over all environments.
+      learning_rate: the initial RMSProp learning rate.
+      warmup_updates: updates over which the rate first rises linearly from 0 (0: none).
+      discount: γ.
+      value_weight: β.
+      entropy_weight: η, for the function id and each argument.
+      rmsprop_decay, rmsprop_epsilon: RMSProp's settings.
+      non_point_rate_scale: multiplies the learning rate of every parameter outside the
+        spatial-argument heads (1: the paper's single rate). Not for "arfullyconv", whose
+        spatial heads are part of its autoregressive chain.
+      max_grad_norm: global gradient-norm clipping (0: none).
+      off_policy_correction: "none" (A3C's n-step returns) or "vtrace".
+      seed: the run's seed (parameters, environments and actions).
+      updates_per_chunk: updates between two host calls (logging).
+      checkpoint_interval_s: seconds between checkpoints (one is always written at the end).
+      eval_episodes: episodes of the final evaluation (0: none).
+      best_eval_interval: how `train` chooses the best parameters it keeps. 0: by the
+        mean of the last `SCORE_WINDOW` training episodes (free, but it lags the
+        policy). N > 0: every N updates (at the first chunk end past each multiple)
+        it evaluates the current parameters for `best_eval_episodes` fresh episodes,
+        always with the same seed, and keeps the best of those (simulator only).
+      best_eval_episodes: episodes of each of those evaluations.
+    """
+
+    map_name: str = "MoveToBeacon"
+    backend: str = "simulator"
+    bot: tuple[str, ...] | None = None
+    agent: str = "fullyconv"
+    screen_size: int = 64
+    minimap_size: int = 64
+    screen_features: tuple[str, ...] | None = None
+    minimap_features: tuple[str, ...] | None = None
+    functions: tuple[str, ...] | None = None
+    step_mul: int = 8
+    num_envs: int = 32
+    unroll_length: int = 40
+    total_steps: int = 1_000_000
+    learning_rate: float = 5e-4
+    warmup_updates: int = 0
+    discount: float = 0.99
+    value_weight: float = 0.5
+    entropy_weight: float = 1e-3
+    rmsprop_decay: float = 0.99
+    rmsprop_epsilon: float = 1e-5
+    non_point_rate_scale: float = 1.0
+    max_grad_norm: float = 10.0
+    off_policy_correction: str = "none"
+    seed: int = 0
+    updates_per_chunk: int = 10
+    checkpoint_interval_s: float = 300.0
+    eval_episodes: int = 100
+    best_eval_interval: int = 0
+    best_eval_episodes: int = 20
+
+    def __post_init__(self):
+        if self.backend not in BACKENDS:
+            raise ValueError(f"unknown backend {self.backend!r}; allowed: {list(BACKENDS)}")
+        if not isinstance(self.map_name, str) or not self.map_name:
+            raise ValueError(f"map_name must be a non-empty str, got {self.map_name!r}")
+        if self.backend == "simulator":
+            check_map(self.map_name, " (or any map of the game with backend 'sc2')")
+        if self.bot is not None:
+            if self.backend != "sc2":
+                raise ValueError(f"bot {self.bot!r} needs backend 'sc2' (the simulator's "
+                                 f"mini-games have no opponent)")
+            if isinstance(self.bot, str) or not 1 <= len(self.bot) <= 3:
+                raise ValueError(f"bot must be (race, difficulty[, build]), got {self.bot!r}")
+            object.__setattr__(self, "bot", tuple(self.bot))
+            self.opponent().setup()  # checks the race, difficulty and build
+        if self.agent not in NETWORKS:
+            raise ValueError(f"unknown agent {self.agent!r}; allowed: {sorted(NETWORKS)}")
+        if self.off_policy_correction not in OFF_POLICY_CORRECTIONS:
+            raise ValueError(f"unknown off_policy_correction {self.off_policy_correction!r}; "
+                             f"allowed: {list(OFF_POLICY_CORRECTIONS)}")
+        for name in ("screen_features", "minimap_features", "functions"):
+            value = getattr(self, name)
+            if isinstance(value, str):
+                raise ValueError(f"{name} must be a sequence of layer names, got {value!r}")
+            if value is not None:
+                object.__setattr__(self, name, tuple(value))
+        for name in ("step_mul", "num_envs", "unroll_length", "total_steps",
+                     "updates_per_chunk"):
+            check_positive_int(name, getattr(self, name))
+        for name in ("learning_rate", "rmsprop_epsilon", "non_point_rate_scale",
+                     "checkpoint_interval_s"):
+            _positive_float(name, getattr(self, name))
+        for name in ("value_weight", "entropy_weight", "max_grad_norm"):
+            if not getattr(self, name) >= 0:
+                raise ValueError(f"{name} must be >= 0, got {getattr(self, name)!r}")
+        if self.non_point_rate_scale != 1.0 and self.agent == "arfullyconv":
+            raise ValueError(f"non_point_rate_scale={self.non_point_rate_scale!r} needs a "
+                             f"network with point heads (atari, fullyconv, fullyconv_lstm), "
+                             f"not 'arfullyconv'; use 1")
+        if not 0.0 <= self.discount <= 1.0:
+            raise ValueError(f"discount must be in [0, 1], got {self.discount!r}")
+        if not 0.0 <= self.rmsprop_decay < 1.0:
+            raise ValueError(f"rmsprop_decay must be in [0, 1), got {self.rmsprop_decay!r}")
+        for name in ("warmup_updates", "eval_episodes", "best_eval_interval"):
+            check_non_negative_int(name, getattr(self, name))
+        check_positive_int("best_eval_episodes", self.best_eval_episodes)
+        if self.best_eval_interval and self.backend != "simulator":
+            raise ValueError(f"best_eval_interval={self.best_eval_interval!r} needs backend "
+                             f"'simulator' (on {self.backend!r} the evaluation would take "
+                             f"the training games); use 0 there")
+        self.observation_format()  # checks the resolutions and layer names
+        function_mask(self.functions)  # checks the action set
+
+    def opponent(self) -> Bot | None:
+        """The `game_env.Bot` of `bot`."""
+        return None if self.bot is None else Bot(*self.bot)
+
+    def observation_format(self) -> ObservationFormat:
+        return ObservationFormat(screen_size=self.screen_size, minimap_size=self.minimap_size,
+                                 screen_features=self.screen_features,
+                                 minimap_features=self.minimap_features)
+
+    @property
+    def steps_per_update(self) -> int:
+        return self.unroll_length * self.num_envs
+
+    @property
+    def total_updates(self) -> int:
+        """Updates of the run: total_steps rounded up to whole updates."""
+        return -(-self.total_steps // self.steps_per_update)
+
+    def to_json(self) -> dict:
+        return dataclasses.asdict(self)
+
+    @classmethod
+    def from_json(cls, payload: dict) -> TrainConfig:
+        names = {f.name for f in dataclasses.fields(cls)}
+        unknown = sorted(set(payload) - names)
+        if unknown:
+            raise ValueError(f"unknown config keys {unknown}; allowed: {sorted(names)}")
+        return cls(**payload)
+
+
+def parse_names(text: str | None) -> tuple[str, ...] | None:
+    """A comma-separated flag value -> names ("" or "all" or None: all of them)."""
+    if text is None or text.strip() in ("", "all"):
+        return None
+    return tuple(name.strip() for name in text.split(",") if name.strip())
+

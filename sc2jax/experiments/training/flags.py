@@ -1,0 +1,139 @@
+"""The flags that the commands share, defined from one table, and `TrainConfig` from them.
+
+Each command asks for the flags it takes (`define`), with its own defaults where they
+differ from `TrainConfig`'s; the training commands (train, sweep, table1) take them all
+(`define_training`) plus `--preset` and `--run_dir`.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import tempfile
+
+from absl import flags
+
+from sc2jax.environment.interface.map_names import MINI_GAMES
+from sc2jax.experiments.training.config import BACKENDS, TrainConfig, parse_names
+from sc2jax.experiments.training.presets import PRESETS, get_preset
+from sc2jax.networks.factory import NETWORKS
+
+FLAGS = flags.FLAGS
+_DEFAULTS = TrainConfig()
+
+# flag name -> (TrainConfig field, absl definer, help).
+_TABLE = {
+    "map": ("map_name", flags.DEFINE_string,
+            f"Mini-game: one of {sorted(MINI_GAMES)} (with --backend=sc2, any map the game "
+            "has)."),
+    "backend": ("backend", flags.DEFINE_string,
+                f"One of {list(BACKENDS)}: 'simulator' (embedded) or 'sc2' (StarCraft II, one "
+                "game process per environment, from --sc2path)."),
+    "bot": ("bot", flags.DEFINE_string, "A built-in AI opponent on the real game: "
+            "race,difficulty[,build], e.g. terran,easy."),
+    "agent": ("agent", flags.DEFINE_string, f"Network: one of {sorted(NETWORKS)}."),
+    "screen_size": ("screen_size", flags.DEFINE_integer, "Feature-screen resolution (16..256)."),
+    "minimap_size": ("minimap_size", flags.DEFINE_integer,
+                     "Feature-minimap resolution (16..256)."),
+    "screen_features": ("screen_features", flags.DEFINE_string,
+                        "Comma-separated screen layers, or 'all'."),
+    "minimap_features": ("minimap_features", flags.DEFINE_string,
+                         "Comma-separated minimap layers, or 'all'."),
+    "functions": ("functions", flags.DEFINE_string, "The agent's action set: comma-separated "
+                  "PySC2 function names, or 'all' (the paper's setting)."),
+    "step_mul": ("step_mul", flags.DEFINE_integer, "Game loops per agent step."),
+    "num_envs": ("num_envs", flags.DEFINE_integer, "Environments stepped together."),
+    "unroll_length": ("unroll_length", flags.DEFINE_integer, "K: agent steps per trajectory."),
+    "total_steps": ("total_steps", flags.DEFINE_integer,
+                    "Agent steps of the run, over all environments."),
+    "learning_rate": ("learning_rate", flags.DEFINE_float,
+                      "Initial learning rate (annealed linearly to half)."),
+    "warmup_updates": ("warmup_updates", flags.DEFINE_integer,
+                       "Updates over which the learning rate first rises from 0."),
+    "discount": ("discount", flags.DEFINE_float, "γ."),
+    "value_weight": ("value_weight", flags.DEFINE_float, "β."),
+    "entropy_weight": ("entropy_weight", flags.DEFINE_float,
+                       "η for the function id and each argument."),
+    "rmsprop_decay": ("rmsprop_decay", flags.DEFINE_float, "RMSProp decay."),
+    "rmsprop_epsilon": ("rmsprop_epsilon", flags.DEFINE_float, "RMSProp ε."),
+    "non_point_rate_scale": (
+        "non_point_rate_scale", flags.DEFINE_float, "Multiplies the learning rate of every "
+        "parameter outside the spatial-argument heads (1: one rate, the paper's). With the "
+        "zero background, spatial 2e-2 and the rest 1e-3 reached 20 on 5 of 6 MoveToBeacon "
+        "seeds, one rate 5e-3 on 11 of 18. FullyConv LSTM needs it at such rates: at one rate "
+        "of 5e-3 its ConvLSTM's output gate closed and it did not learn; with 0.1 it learns "
+        "MoveToBeacon (docs/results.md)."),
+    "max_grad_norm": ("max_grad_norm", flags.DEFINE_float,
+                      "Global gradient-norm clip (0: none)."),
+    "off_policy_correction": ("off_policy_correction", flags.DEFINE_string,
+                              "'none' (n-step A3C) or 'vtrace'."),
+    "seed": ("seed", flags.DEFINE_integer, "Random seed."),
+    "updates_per_chunk": ("updates_per_chunk", flags.DEFINE_integer,
+                          "Updates between log rows."),
+    "checkpoint_interval_s": ("checkpoint_interval_s", flags.DEFINE_float,
+                              "Seconds between checkpoints."),
+    "eval_episodes": ("eval_episodes", flags.DEFINE_integer,
+                      "Episodes of the final evaluation (0: none)."),
+    "best_eval_interval": (
+        "best_eval_interval", flags.DEFINE_integer, "Choose the best parameters (kept in "
+        "run_dir/best) by evaluating the current ones every this many updates; 0: by the "
+        "mean of the last 100 training episodes."),
+    "best_eval_episodes": ("best_eval_episodes", flags.DEFINE_integer,
+                           "Episodes of each of those evaluations."),
+    "sc2path": (None, flags.DEFINE_string, "The game's install (default $SC2PATH)."),
+}
+_NAMES = ("screen_features", "minimap_features", "functions", "bot")  # Lists in one string.
+
+
+def _flag_default(field: str | None):
+    if field is None:
+        return None
+    value = getattr(_DEFAULTS, field)
+    if field in _NAMES:
+        return "all" if field != "bot" and value is None else None
+    return value
+
+
+def define(names, **defaults) -> dict[str, flags.FlagHolder]:
+    """Defines the shared flags `names` (keys of the table), with `TrainConfig`'s defaults
+    unless `defaults` names another; returns their holders by name."""
+    holders = {}
+    for name in names:
+        field, definer, help_text = _TABLE[name]
+        default = defaults.get(name, _flag_default(field))
+        holders[name] = definer(name, default, help_text)
+    return holders
+
+
+def define_training() -> None:
+    """Defines every shared flag (each `TrainConfig` field, `--sc2path`), `--preset` and
+    `--run_dir`."""
+    define(_TABLE)
+    flags.DEFINE_string("preset", None, "A named configuration, its fields overridden by the "
+                        f"flags given: one of {sorted(PRESETS)} "
+                        "(sc2jax.experiments.training.presets).")
+    flags.DEFINE_string("run_dir", None, "The run's directory (default: a new temporary one). "
+                        "An existing run there is resumed.")
+
+
+def field_value(name: str):
+    """The `TrainConfig` value of the shared flag `name` (lists parsed)."""
+    field, value = _TABLE[name][0], FLAGS[name].value
+    if field == "bot":
+        bot = parse_names(value)
+        # A difficulty may be a number.
+        return None if bot is None else tuple(int(v) if v.isdigit() else v for v in bot)
+    return parse_names(value) if field in _NAMES else value
+
+
+def config_from_flags() -> TrainConfig:
+    """The `TrainConfig` of `--preset` (default: `TrainConfig()`) with every training flag
+    given on the command line put over it. Raises ValueError for a bad value."""
+    base = get_preset(FLAGS.preset).config if FLAGS.preset else _DEFAULTS
+    changes = {_TABLE[name][0]: field_value(name) for name in _TABLE
+               if _TABLE[name][0] and (FLAGS[name].present or not FLAGS.preset)}
+    return dataclasses.replace(base, **changes)
+
+
+def run_dir_or_temporary(config: TrainConfig) -> str:
+    """--run_dir, or a new temporary directory named after the map."""
+    return FLAGS.run_dir or tempfile.mkdtemp(prefix=f"sc2jax-{config.map_name}-")

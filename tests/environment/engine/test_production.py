@@ -1,0 +1,385 @@
+"""Exact production scenes on CollectMineralsAndGas and BuildMarines: training, supply,
+construction and placement, gas, rallies, cancels, the restricted command cards, and the
+score (`production`, `score`).
+
+At screen resolution 32 the camera (32.94, 25.00) shows 0.75 world units per pixel.
+Command Center (29.83, 28.01); SCV 50 minerals, 272 loops; Supply Depot 100, 480 loops;
+Refinery 75, 480 loops.
+"""
+
+import functools
+import re
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+import pytest
+
+from sc2jax.environment import FUNCTIONS, Simulator, to_dense
+from sc2jax.environment.engine.minigames.economy import COMMAND_CENTER, GEYSERS, LEFT_FIELDS
+from sc2jax.environment.engine.rules import production, score
+from sc2jax.environment.engine.rules.dynamics import game_loop
+from sc2jax.environment.engine.rules.state import Order, Owner, first_slots, place
+from sc2jax.environment.engine.rules.units import UnitType
+from sc2jax.environment.interface.observation_tables import Player, ScoreCumulative
+from sc2jax.environment.interface.protocol_enums import ActionResult
+from tests.environment.helpers import PARAMS, SMALL, assert_trees_equal, compiled, small_sim
+
+CMAG, BM = "CollectMineralsAndGas", "BuildMarines"
+F = FUNCTIONS
+
+
+@functools.cache
+def _start(map_name, minerals):
+    reset, _ = compiled(small_sim(map_name))
+    state = reset(jax.random.PRNGKey(0), PARAMS)[0]
+    return state.replace(minerals=jnp.int32(minerals))
+
+
+def start(map_name=CMAG, minerals=1000):
+    """The map's first state with the given minerals, and its compiled step."""
+    return _start(map_name, minerals), compiled(small_sim(map_name))[1]
+
+
+def pixel(state, world):
+    """The screen pixel (res 32) holding a world point."""
+    cx, cy = np.asarray(state.camera)
+    return [int(np.floor((world[0] - cx) / 0.75 + 16)), int(np.floor(16 - (world[1] - cy) / 0.75))]
+
+
+def act(step, state, call, map_name=CMAG):
+    state, ts = step(state, to_dense(call, small_sim(map_name).fmt.types), PARAMS)
+    return state, jax.device_get(ts)
+
+
+def wait(step, state, steps, map_name=CMAG):
+    ts = None
+    for _ in range(steps):
+        state, ts = act(step, state, F.no_op(), map_name)
+    return state, ts
+
+
+def slots(state, unit_type):
+    units = jax.device_get(state.units)
+    return np.nonzero(units.alive & (units.type == unit_type))[0]
+
+
+def result(ts):
+    return int(ts.observation["action_result"][0])
+
+
+def available(ts):
+    return set(np.nonzero(ts.observation["available_actions"])[0].tolist())
+
+
+def select_cc(step, state):
+    return act(step, state, F.select_point("select", pixel(state, COMMAND_CENTER)))
+
+
+def select_scv(step, state, map_name=CMAG):
+    scv = slots(state, UnitType.SCV)[0]
+    return act(step, state, F.select_point("select", pixel(state, state.units.pos[scv])),
+               map_name)
+
+
+def test_train_scv_pays_queues_and_appears_after_its_build_time():
+    state, step = start()
+    state, ts = select_cc(step, state)
+    assert {F.Train_SCV_quick.id, F.Rally_Workers_screen.id} <= available(ts)
+    assert F.build_queue.id not in available(ts)  # No production panel yet.
+    state, ts = act(step, state, F.Train_SCV_quick("now"))
+    state, ts = act(step, state, F.Train_SCV_quick("now"))
+    assert result(ts) == 0 and int(state.minerals) == 900
+    # The first trains (its food counts), the second waits.
+    assert ts.observation["player"][Player.food_used] == 13
+    queue = ts.observation["production_queue"]
+    assert queue[0, 0] == queue[1, 0] == F.Train_SCV_quick.ability_id
+    assert 0 < queue[0, 1] < 100 and queue[1, 1] == 0 and queue[2, 0] == 0
+    assert ts.observation["build_queue"][0, 0] == 45
+    assert F.build_queue.id in available(ts)  # The production panel shows.
+    # Queued on the step before last: 8 + 8 loops done; 272 needs 32 more steps.
+    state, _ = wait(step, state, 31)
+    assert len(slots(state, UnitType.SCV)) == 12
+    state, ts = wait(step, state, 1)
+    scvs = slots(state, UnitType.SCV)
+    assert len(scvs) == 13
+    new = scvs[np.argmax(np.asarray(state.units.tag)[scvs])]
+    # Beside the Command Center, below it (no rally), and idle.
+    cc = np.asarray(COMMAND_CENTER)
+    assert np.linalg.norm(np.asarray(state.units.pos[new]) - cc) < 2.75 + 0.375 + 0.5
+    assert int(state.units.orders[new, 0]) == Order.NONE
+    assert ts.observation["player"][Player.food_workers] == 13
+
+
+def test_train_errors_queue_full_minerals_and_supply():
+    state, step = start()
+    state, _ = select_cc(step, state)
+    for _ in range(5):
+        state, ts = act(step, state, F.Train_SCV_quick("now"))
+        assert result(ts) == 0
+    state, ts = act(step, state, F.Train_SCV_quick("now"))
+    assert result(ts) == ActionResult.QueueIsFull and int(state.minerals) == 750
+    state, ts = act(step, state, F.Cancel_Last_quick("now"))
+    assert result(ts) == 0 and int(state.minerals) == 800
+    poor = state.replace(minerals=jnp.int32(49))
+    _, ts = act(step, poor, F.Train_SCV_quick("now"))
+    assert result(ts) == ActionResult.NotEnoughMinerals
+    # 15 of 15 food: two more SCVs alive and one training.
+    state = _with_units(start()[0], [(UnitType.SCV, (36.0, 33.0)), (UnitType.SCV, (37.0, 33.0))])
+    state, _ = select_cc(step, state)
+    state, ts = act(step, state, F.Train_SCV_quick("now"))
+    assert result(ts) == 0
+    state, ts = act(step, state, F.Train_SCV_quick("now"))
+    assert result(ts) == ActionResult.NotEnoughFood
+
+
+def _with_units(state, specs, complete=True):
+    """The state with more of the player's units in free slots."""
+    units, tag = state.units, state.next_tag
+    for unit_type, xy in specs:
+        free = int(np.nonzero(~np.asarray(units.alive))[0][0])
+        units, tag = place(units, jnp.array([free]), unit_type, Owner.SELF,
+                           jnp.asarray([xy], jnp.float32), tag)
+        if not complete:
+            units = units.replace(progress=units.progress.at[free].set(0.0))
+    return state.replace(units=units, next_tag=tag)
+
+
+def test_supply_depot_is_placed_on_arrival_and_built_in_480_loops():
+    state, step = start()
+    state, _ = select_scv(step, state)
+    site = (33.0, 33.0)
+    state, ts = act(step, state, F.Build_SupplyDepot_screen("now", pixel(state, site)))
+    assert result(ts) == 0 and int(state.minerals) == 1000  # Paid on arrival.
+    builder = slots(state, UnitType.SCV)[0]
+    assert int(state.units.orders[builder, 0]) == Order.BUILD
+    for _ in range(30):
+        state, ts = wait(step, state, 1)
+        if len(slots(state, UnitType.SUPPLY_DEPOT)):
+            break
+    depot = slots(state, UnitType.SUPPLY_DEPOT)[0]
+    np.testing.assert_allclose(np.asarray(state.units.pos[depot]), site)
+    assert int(state.minerals) == 900
+    assert int(state.units.orders[builder, 0]) == Order.CONSTRUCT
+    assert 40 <= float(state.units.health[depot]) < 60
+    assert ts.observation["player"][Player.food_cap] == 15
+    assert ts.observation["score_cumulative"][ScoreCumulative.spent_minerals] == 100
+    progress = float(state.units.progress[depot])
+    state, ts = wait(step, state, int(np.ceil((480 - progress) / 8)))
+    assert float(state.units.health[depot]) == 400
+    assert ts.observation["player"][Player.food_cap] == 23
+    assert int(state.units.orders[builder, 0]) == Order.NONE
+
+
+def test_placement_errors():
+    state, step = start()
+    state, _ = select_scv(step, state)
+    depot, cc, refinery = (F.Build_SupplyDepot_screen, F.Build_CommandCenter_screen,
+                           F.Build_Refinery_screen)
+    cases = [(depot, tuple(LEFT_FIELDS[0]), ActionResult.CantFindPlacementLocation),
+             (depot, (33.0, 36.9), ActionResult.CantBuildLocationInvalid),
+             (depot, (29.8, 28.0), ActionResult.CantFindPlacementLocation),
+             (cc, (31.5, 33.5), ActionResult.CantBuildTooCloseToResources),
+             (refinery, (33.0, 33.0), ActionResult.CantTargetThatUnit)]
+    for function, site, error in cases:
+        _, ts = act(step, state, function("now", pixel(state, site)))
+        assert result(ts) == error, (function.name, site)
+    _, ts = act(step, state.replace(minerals=jnp.int32(99)),
+                F.Build_SupplyDepot_screen("now", pixel(state, (33.0, 33.0))))
+    assert result(ts) == ActionResult.NotEnoughMinerals
+
+
+def test_barracks_needs_a_complete_supply_depot():
+    state, step = start()
+    _, ts = select_scv(step, state)
+    assert F.Build_Barracks_screen.id not in available(ts)
+    unfinished = _with_units(state, [(UnitType.SUPPLY_DEPOT, (36.0, 34.0))], complete=False)
+    _, ts = select_scv(step, unfinished)
+    assert F.Build_Barracks_screen.id not in available(ts)
+    done = _with_units(state, [(UnitType.SUPPLY_DEPOT, (36.0, 34.0))])
+    _, ts = select_scv(step, done)
+    assert F.Build_Barracks_screen.id in available(ts)
+    assert ts.observation["player"][Player.food_cap] == 23
+
+
+def test_refinery_replaces_its_geyser_and_workers_bring_4_gas():
+    state, step = start()
+    state, _ = select_scv(step, state)
+    geyser = tuple(GEYSERS[3])  # (26.5, 20.5), below the left mineral line.
+    state, ts = act(step, state, F.Build_Refinery_screen("now", pixel(state, geyser)))
+    assert result(ts) == 0
+    for _ in range(60):
+        state, ts = wait(step, state, 1)
+        if len(slots(state, UnitType.REFINERY)):
+            break
+    refinery = slots(state, UnitType.REFINERY)[0]
+    assert len(slots(state, UnitType.VESPENE_GEYSER)) == 3
+    assert float(state.units.contents[refinery]) == 2250 and int(state.minerals) == 925
+    # Unfinished: its card is Cancel only.
+    state, ts = act(step, state, F.select_point("select", pixel(state, geyser)))
+    assert F.Cancel_quick.id in available(ts) and F.Smart_screen.id not in available(ts)
+    state, _ = wait(step, state, 60)
+    assert bool(state.units.complete[refinery])
+    state, _ = select_scv(step, state)
+    state, _ = act(step, state, F.Smart_screen("now", pixel(state, geyser)))
+    gas = []
+    for _ in range(30):
+        state, ts = wait(step, state, 1)
+        gas.append(int(ts.observation["score_cumulative"][ScoreCumulative.collected_vespene]))
+    assert gas[-1] >= 4 and gas[-1] % 4 == 0 and int(state.vespene) == gas[-1]
+    # The map's score is the minerals and vespene collected.
+    collected = ts.observation["score_cumulative"]
+    assert collected[0] == (collected[ScoreCumulative.collected_minerals]
+                            + collected[ScoreCumulative.collected_vespene])
+
+
+def test_rally_to_a_mineral_field_sends_new_scvs_to_gather():
+    state, step = start()
+    state, _ = select_cc(step, state)
+    field = tuple(LEFT_FIELDS[0])
+    state, ts = act(step, state, F.Rally_Workers_screen("now", pixel(state, field)))
+    assert result(ts) == 0
+    state, _ = act(step, state, F.Train_SCV_quick("now"))
+    state, _ = wait(step, state, 34)
+    scvs = slots(state, UnitType.SCV)
+    new = scvs[np.argmax(np.asarray(state.units.tag)[scvs])]
+    assert int(state.units.orders[new, 0]) in (Order.GATHER, Order.RETURN)
+
+
+def test_cancel_construction_refunds_three_quarters():
+    state, step = start()
+    state = _with_units(state, [(UnitType.SUPPLY_DEPOT, (36.0, 34.0))], complete=False)
+    state, ts = act(step, state, F.select_point("select", pixel(state, (36.0, 34.0))))
+    assert available(ts) & {F.Cancel_quick.id} and F.Cancel_Last_quick.id not in available(ts)
+    state, ts = act(step, state, F.Cancel_quick("now"))
+    assert result(ts) == 0 and int(state.minerals) == 1075
+    assert len(slots(state, UnitType.SUPPLY_DEPOT)) == 0
+
+
+def test_select_idle_worker_one_and_all():
+    state, step = start()
+    _, ts = act(step, state, F.select_idle_worker("select"))
+    assert ts.observation["single_select"][0, 0] == 45
+    _, ts = act(step, state, F.select_idle_worker("select_all"))
+    assert (ts.observation["multi_select"][:, 0] == 45).sum() == 12
+
+
+def test_build_marines_command_cards():
+    state, step = start(BM)
+    ui = {F.no_op.id, F.move_camera.id, F.select_point.id, F.select_rect.id,
+          F.select_control_group.id}
+    _, ts = select_scv(step, state, BM)
+    assert available(ts) == ui | {F.Smart_screen.id, F.Smart_minimap.id,
+                                  F.Harvest_Gather_screen.id, F.Build_SupplyDepot_screen.id}
+    _, ts = act(step, state, F.select_point("select", pixel(state, COMMAND_CENTER)), BM)
+    assert available(ts) == ui | {F.Train_SCV_quick.id, F.Rally_Workers_screen.id,
+                                  F.Rally_Workers_minimap.id, F.Smart_screen.id,
+                                  F.Smart_minimap.id}
+
+
+def test_build_marines_scores_each_marine_created():
+    state, step = start(BM)
+    state = _with_units(state, [(UnitType.SUPPLY_DEPOT, (36.0, 34.0)),
+                                (UnitType.BARRACKS, (36.5, 28.5))])
+    barracks = slots(state, UnitType.BARRACKS)[0]
+    state, ts = act(step, state, F.select_point("select", pixel(state, (36.5, 28.5))), BM)
+    assert available(ts) - {0, 1, 2, 3, 4} == {F.Train_Marine_quick.id, F.Smart_screen.id,
+                                                F.Smart_minimap.id}
+    state, _ = act(step, state, F.Train_Marine_quick("now"), BM)
+    state, _ = act(step, state, F.Train_Marine_quick("now"), BM)
+    assert int(state.units.queue[barracks, 1]) == UnitType.MARINE
+    rewards = []
+    for _ in range(110):
+        state, ts = act(step, state, F.no_op(), BM)
+        rewards.append(float(ts.reward))
+    assert sum(rewards) == 2 and len(slots(state, UnitType.MARINE)) == 2
+    # The first after 400 loops (50 steps, queued in the step before last), then 400 more.
+    assert np.nonzero(rewards)[0].tolist() == [47, 97]
+
+
+def test_workers_spread_over_the_mineral_line():
+    state, step = start(BM, minerals=50)
+    state, _ = wait(step, state, 40, BM)
+    units = jax.device_get(state.units)
+    gathering = units.alive & (units.type == UnitType.SCV)
+    fields = set(units.home[gathering].tolist())
+    assert len(fields) >= 6
+
+
+def test_blizzard_score_reward_ignores_spending_and_counts_income():
+    state, step = start()
+    state, _ = select_cc(step, state)
+    trained, _ = act(step, state, F.Train_SCV_quick("now"))
+    assert int(trained.minerals) == int(state.minerals) - 50
+    # The reward of score_index=-2 (computed here without compiling that simulator).
+    blizzard = Simulator(CMAG, fmt=SMALL, score_index=-2)
+    before, after = score.blizzard_score(state), score.blizzard_score(trained)
+    assert int(before) == 1000 + 12 * 50 + 400  # Minerals, SCVs, the Command Center.
+    assert float(blizzard._reward(state, trained, False)) == float(after - before) == 0.0
+    richer = trained.replace(minerals=trained.minerals + 5)
+    assert float(blizzard._reward(trained, richer, False)) == 5.0
+
+
+def test_bad_score_index_names_what_is_allowed():
+    for bad in (-3, 13, 1.0):
+        with pytest.raises(ValueError, match=r"score_index must be -2 \(the Blizzard score\)"):
+            Simulator(CMAG, fmt=SMALL, score_index=bad)
+
+
+@pytest.mark.parametrize("marines, needs", [(10, [32, 33, 33]), (11, [33, 34, 34])])
+def test_leading_slots_play_the_same_game_as_all_slots(marines, needs):
+    """BuildMarines runs its game loops on the leading slots in use and one more per
+    unit that can create one (`slot_sizes` (32, 96, 200)), and observes the slots in
+    use. A start with marines in slots 21 on, whose Command Center finishes an SCV in
+    the first step, plays and is observed bit for bit as by the engine on all 200 slots
+    (`use_slot_sizes=False`): with 10 marines at 32 slots, then at 96; with 11 at 96,
+    which the Command Center's room decides (at 32 the SCV would find no free slot).
+    Batches take their largest need: tests/environment/test_lazy.py."""
+    state, step = start(BM)
+    units, tag = place(state.units, 21 + np.arange(marines), UnitType.MARINE, Owner.SELF,
+                       jnp.asarray(COMMAND_CENTER) + jnp.stack(
+                           [jnp.linspace(-4.0, 4.0, marines), jnp.full(marines, -4.0)],
+                           axis=1), state.next_tag)
+    cc = slots(state, UnitType.COMMAND_CENTER)[0]
+    units = units.replace(queue=units.queue.at[cc, 0].set(UnitType.SCV),
+                          queue_work=units.queue_work.at[cc].set(270.0))
+    every = Simulator(BM, SMALL, use_slot_sizes=False)
+    step_every = compiled(every)[1]
+    need = jax.jit(small_sim(BM).slots_needed)
+    a = b = state.replace(units=units, next_tag=tag)
+    seen = []
+    for _ in range(3):
+        seen.append(int(need(a.units)))
+        (a, ts_a), (b, ts_b) = act(step, a, F.no_op(), BM), act(step_every, b, F.no_op(), BM)
+        assert_trees_equal((a, ts_a), (b, ts_b))
+    assert seen == needs
+    assert int(a.units.alive.sum()) == 22 + marines  # The new SCV.
+
+
+def test_bad_use_slot_sizes_names_what_is_allowed():
+    for bad in (0, "yes", None):
+        with pytest.raises(ValueError, match=r"use_slot_sizes must be a bool, got"):
+            Simulator(BM, fmt=SMALL, use_slot_sizes=bad)
+
+
+def test_first_slots_is_nonzero_and_the_economy_loop_has_no_scatter():
+    rng = np.random.default_rng(0)
+    for count in (1, 4, 12):
+        for mask in (rng.random(12) < 0.3, np.zeros(12, bool), np.ones(12, bool)):
+            np.testing.assert_array_equal(
+                first_slots(mask, count), jnp.nonzero(mask, size=count, fill_value=12)[0])
+    # Harvest and production by pairs and selects: XLA's CPU backend can compile the
+    # game loop whole (`devices.compile_small_loops_whole`).
+    sim = small_sim("CollectMineralsAndGas")
+    game = sim.game
+    state, _ = compiled(sim)[0](jax.random.PRNGKey(0), PARAMS)
+
+    def loop(units, key):
+        units, _ = game_loop(units, key, game.geometry.playable, workers=True, combat=False,
+                             colliders=game.collider_slots, field_slots=game.field_slots,
+                             sized=True)
+        return production.production_loop(units, jnp.int32(50), jnp.int32(1),
+                                          jnp.asarray(game.geometry.buildable))
+
+    hlo = jax.jit(loop).lower(state.units, state.key).compile().as_text()
+    assert not re.search(r"= \S+ scatter", hlo)
