@@ -8,6 +8,7 @@ import functools
 
 import jax
 import numpy as np
+import pytest
 
 from sc2jax.environment import EnvParams, ObservationFormat, Simulator
 from sc2jax.environment.agents import random_action
@@ -76,3 +77,14 @@ def random_episode(sim: Simulator, seed: int, steps: int, start_loop: int = 0):
         timesteps.append(jax.device_get(ts))
         actions.append(jax.device_get(action))
     return jax.device_get(first), timesteps, actions
+
+
+SLOW_MAPS = ("DefeatRoaches", "DefeatZerglingsAndBanelings", "CollectMineralsAndGas",
+             "BuildMarines")
+"""The maps whose programs take longest to compile: their contract tests are in the slow
+tier (`pytest -m "not slow"` leaves them out; the full suite runs them)."""
+
+
+def map_params(names):
+    """`names` as parametrize values, those of `SLOW_MAPS` marked slow."""
+    return [pytest.param(m, marks=pytest.mark.slow) if m in SLOW_MAPS else m for m in names]

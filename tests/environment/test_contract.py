@@ -7,7 +7,14 @@ import numpy as np
 import pytest
 
 from sc2jax.environment import FUNCTIONS, MAPS, ObservationFormat, make, to_dense
-from tests.environment.helpers import PARAMS, SMALL_MAKE, compiled, random_episode, small_sim
+from tests.environment.helpers import (
+    PARAMS,
+    SMALL_MAKE,
+    compiled,
+    map_params,
+    random_episode,
+    small_sim,
+)
 
 MAP_NAMES = sorted(MAPS)
 
@@ -16,7 +23,7 @@ def _stack(timesteps):
     return jax.tree_util.tree_map(lambda *xs: np.stack(xs), *timesteps)
 
 
-@pytest.mark.parametrize("map_name", MAP_NAMES)
+@pytest.mark.parametrize("map_name", map_params(MAP_NAMES))
 def test_episode_structure_and_specs(map_name):
     sim = small_sim(map_name)
     # Long maps start their clock within 120 steps of the end.
@@ -50,7 +57,7 @@ def test_episode_structure_and_specs(map_name):
             s.validate(np.asarray(obs[key]))
 
 
-@pytest.mark.parametrize("map_name", MAP_NAMES)
+@pytest.mark.parametrize("map_name", map_params(MAP_NAMES))
 def test_determinism(map_name):
     sim = small_sim(map_name)
     a = random_episode(sim, seed=11, steps=30)
@@ -63,7 +70,7 @@ def test_determinism(map_name):
     assert not np.array_equal(screens(a), screens(c))
 
 
-@pytest.mark.parametrize("map_name", MAP_NAMES)
+@pytest.mark.parametrize("map_name", map_params(MAP_NAMES))
 def test_step_keeps_avals(map_name):
     """A step returns arrays of the same shapes, dtypes and weak types as reset, so a
     jitted loop over it never recompiles."""
@@ -75,7 +82,7 @@ def test_step_keeps_avals(map_name):
     assert avals((state, ts)) == avals((state2, ts2))
 
 
-@pytest.mark.parametrize("map_name", MAP_NAMES)
+@pytest.mark.parametrize("map_name", map_params(MAP_NAMES))
 def test_dm_env_wrapper_pysc2_layout(map_name):
     env = make(map_name, seed=1, **SMALL_MAKE)
     assert env.simulator is small_sim(map_name)  # Shares the compiled functions.

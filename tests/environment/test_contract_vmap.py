@@ -23,8 +23,10 @@ MAP_NAMES = sorted(MAPS)
 # covers DefeatRoaches' paths and more (the banelings' bursts). The economy maps are left
 # out (CollectMineralsAndGas's batched step took 107 s): beyond JAX's own batching rules,
 # theirs rests on the same `smallest_fit`.
-@pytest.mark.parametrize("map_name", [m for m in MAP_NAMES if m not in (
-    "BuildMarines", "CollectMineralsAndGas", "DefeatRoaches")])
+# MoveToBeacon in the fast tier; the other maps in the slow one.
+@pytest.mark.parametrize("map_name", [
+    m if m == "MoveToBeacon" else pytest.param(m, marks=pytest.mark.slow) for m in MAP_NAMES
+    if m not in ("BuildMarines", "CollectMineralsAndGas", "DefeatRoaches")])
 def test_vmap_matches_single(map_name):
     sim = small_sim(map_name)
     if sim.game.slot_sizes is not None:

@@ -26,7 +26,14 @@ from sc2jax.environment.engine.minigames.wave_combat import (
 )
 from sc2jax.environment.engine.rules.dynamics import LoopEvents, _cooldown_jitter, game_loop
 from sc2jax.environment.engine.rules.state import Order, Outcome, Owner, place, place_where
-from tests.environment.helpers import PARAMS, assert_trees_equal, compiled, random_actor, small_sim
+from tests.environment.helpers import (
+    PARAMS,
+    assert_trees_equal,
+    compiled,
+    map_params,
+    random_actor,
+    small_sim,
+)
 
 from .test_mechanics import make_units, with_orders
 
@@ -170,7 +177,7 @@ def test_combat_across_a_team_split_is_combat_over_all_pairs():
 
 # DefeatZerglingsAndBanelings runs DefeatRoaches' script (other units), so its step's
 # compilation would add nothing here.
-@pytest.mark.parametrize("name", ["FindAndDefeatZerglings", "DefeatRoaches"])
+@pytest.mark.parametrize("name", map_params(["FindAndDefeatZerglings", "DefeatRoaches"]))
 def test_each_side_stays_on_its_side_of_the_team_split(name):
     # The maps that declare `team_split` keep one side's units before it and the
     # other's after it (FindAndDefeatZerglings the player's first, the wave maps the
@@ -369,6 +376,7 @@ def test_wave_maps_play_on_their_leading_slots_as_on_all_slots():
             assert int(a.units.alive[4:].sum()) == 14 and bool(a.units.alive[:4].all())
 
 
+@pytest.mark.slow
 def test_a_run_whose_last_slot_fills_runs_again_on_more_slots():
     """With 14 marines and no room for the wave's reinforcements, the step is first
     tried on 20 slots (16 for 19 marines), where the wave fills the last slot: the run

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from sc2jax.environment import EnvParams, ObservationFormat
-from tests.environment.helpers import PARAMS, compiled, random_actor, small_sim
+from tests.environment.helpers import PARAMS, compiled, map_params, random_actor, small_sim
 
 # Episodes truncated after 3 agent steps, so the runs below cross two auto-resets.
 SHORT = EnvParams(game_steps_per_episode=np.int32(24))
@@ -45,7 +45,8 @@ def play_both(sim, seed: int, steps: int, start=None):
     return pairs
 
 
-@pytest.mark.parametrize("map_name", ["FindAndDefeatZerglings", "CollectMineralsAndGas"])
+@pytest.mark.parametrize("map_name",
+                         map_params(["FindAndDefeatZerglings", "CollectMineralsAndGas"]))
 def test_observations_written_into_the_last_are_the_same(map_name):
     # FindAndDefeatZerglings: fog, a moving camera, zero layers; CollectMineralsAndGas: an
     # economy map on slot sizes, with build progress.

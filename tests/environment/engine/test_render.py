@@ -135,7 +135,7 @@ def _random_states(sim, seed: int, steps: int):
 
 @pytest.mark.parametrize("map_name,paints_every_word", [
     ("CollectMineralShards", True), ("FindAndDefeatZerglings", True),
-    ("BuildMarines", False), ("CollectMineralShards", False)])
+    pytest.param("BuildMarines", False, marks=pytest.mark.slow), ("CollectMineralShards", False)])
 def test_unit_layers_match_the_per_pixel_reference(map_name, paints_every_word,
                                                    monkeypatch):
     sim = small_sim(map_name)

@@ -165,6 +165,7 @@ def test_nothing_listening_gives_a_connection_error():
         Controller.connect("127.0.0.1", 1, connect_seconds=1)
 
 
+@pytest.mark.slow
 def test_an_install_layout_launches_the_server_and_survives_a_killed_game(tmp_path):
     root = write_sc2path(tmp_path / "StarCraftII")
     assert (root / "Maps" / "mini_games" / "BuildMarines.SC2Map").is_file()

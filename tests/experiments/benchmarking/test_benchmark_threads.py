@@ -6,6 +6,10 @@ import re
 import subprocess
 import sys
 
+import pytest
+
+pytestmark = pytest.mark.slow  # the slow tier: left out of `pytest -m "not slow"`
+
 BENCHMARK = [sys.executable, "-m", "sc2jax.experiments.benchmark", "--maps=MoveToBeacon",
              "--screen_size=16", "--minimap_size=16", "--steps=1", "--repeats=1",
              "--smax=False"]

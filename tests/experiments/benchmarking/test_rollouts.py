@@ -6,6 +6,7 @@ from unittest import mock
 import jax
 import jax.numpy as jnp
 import numpy as np
+import pytest
 
 from sc2jax.environment import ObservationFormat, Simulator
 from sc2jax.experiments.benchmarking import rollouts
@@ -30,6 +31,7 @@ def test_per_env_of_one_runs_unbatched():
     assert "cond" not in str(jax.make_jaxpr(_vmapped(fn, 1, (0, None)))(x, k))
 
 
+@pytest.mark.slow
 def test_one_environment_rollout_matches_a_vmap_of_one():
     # Every leaf of the carry the same, bit for bit, after 12 steps.
     sim = Simulator(map_name="FindAndDefeatZerglings",

@@ -85,6 +85,7 @@ def fake_sweeps(monkeypatch):
     return calls
 
 
+@pytest.mark.slow
 def test_table_runs_each_map_once_and_resumes(tmp_path, fake_sweeps, monkeypatch):
     maps = ("MoveToBeacon", "CollectMineralShards")
     table = tables.build_table1(CONFIG, maps, RATES, str(tmp_path), 2, log=lambda _: None)

@@ -68,6 +68,7 @@ def test_unroll_emits_a_consistent_trajectory(agent):
     assert chosen.all()
 
 
+@pytest.mark.slow
 def test_scan_and_loop_chunks_agree_and_learn(agent):
     unroll = make_unroll(agent.sim, agent.core, TINY.unroll_length)
     state = _initial_state(agent, 1)
@@ -90,6 +91,7 @@ def test_scan_and_loop_chunks_agree_and_learn(agent):
         assert all(jax.tree.leaves(changed)), name
 
 
+@pytest.mark.slow
 def test_non_point_rate_scale_scales_all_but_the_point_heads(agent):
     unroll = make_unroll(agent.sim, agent.core, TINY.unroll_length)
     state = _initial_state(agent, 2)
@@ -118,6 +120,7 @@ def test_non_point_rate_scale_scales_all_but_the_point_heads(agent):
         no_heads.init(jax.random.PRNGKey(0), state.actor.timestep.observation, 1e-3)
 
 
+@pytest.mark.slow
 def test_sweep_chunk_trains_each_run_as_if_alone(agent):
     unroll = make_unroll(agent.sim, agent.core, TINY.unroll_length)
     rates = jnp.array([1e-4, 1e-3], jnp.float32)
@@ -142,6 +145,7 @@ def test_sweep_chunk_trains_each_run_as_if_alone(agent):
                            outs[False][0].learner.params["params"]["value"]["kernel"][1])
 
 
+@pytest.mark.slow
 def test_split_loop_trains_from_a_dm_env_environment():
     config = TrainConfig(**{**TINY.to_json(), "off_policy_correction": "vtrace"})
     agent = trainer.build(config)
@@ -168,6 +172,7 @@ def test_split_loop_trains_from_a_dm_env_environment():
         run_split_loop(actor, agent.learner, state, 0)
 
 
+@pytest.mark.slow
 def test_training_on_games_over_the_sc2_api_resumes_and_evaluates(tmp_path):
     # Two simulator servers stand in for two game processes: `train` with backend "sc2"
     # acts for both with one batched policy (HostActor), feeds the V-trace learner

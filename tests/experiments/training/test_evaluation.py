@@ -114,6 +114,7 @@ def test_evaluate_rejects_bad_flags_before_compiling(tmp_path):
     assert out.returncode != 0 and "--episodes must be >= 1, got 0" in out.stderr
 
 
+@pytest.mark.slow
 def test_evaluate_writes_json(tmp_path):
     path = tmp_path / "eval.json"
     out = subprocess.run(

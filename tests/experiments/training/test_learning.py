@@ -17,6 +17,7 @@ from __future__ import annotations
 import jax
 import jax.numpy as jnp
 import numpy as np
+import pytest
 
 from sc2jax.environment.interface.features import PlayerRelative
 from sc2jax.environment.interface.functions import FUNCTIONS
@@ -25,6 +26,8 @@ from sc2jax.experiments.training.actor import make_unroll
 from sc2jax.experiments.training.config import TrainConfig
 from sc2jax.networks import policy
 from sc2jax.networks.unroll import unroll as network_unroll
+
+pytestmark = pytest.mark.slow  # the slow tier: left out of `pytest -m "not slow"`
 
 CONFIG = TrainConfig(map_name="MoveToBeacon", agent="fullyconv", screen_size=16,
                      minimap_size=16, screen_features=("player_relative", "selected"),

@@ -21,6 +21,8 @@ from sc2jax.experiments.training.checkpoints import Checkpointer
 from sc2jax.experiments.training.config import TrainConfig, parse_names
 from sc2jax.experiments.training.learner import annealed_learning_rate
 
+pytestmark = pytest.mark.slow  # the slow tier: left out of `pytest -m "not slow"`
+
 TINY = TrainConfig(map_name="MoveToBeacon", agent="atari", screen_size=16, minimap_size=16,
                    screen_features=("player_relative", "selected"),
                    minimap_features=("player_relative",), num_envs=2, unroll_length=4,

@@ -39,6 +39,7 @@ def _play(devices, steps: int = 3):
     return state, ts
 
 
+@pytest.mark.slow
 def test_two_devices_step_each_environment_as_one_device_does():
     devices = jax.devices()
     assert len(devices) >= 2, "tests/conftest.py gives the CPU two host devices"
