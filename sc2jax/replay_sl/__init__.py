@@ -1,1 +1,12 @@
-"""sc2jax.replay_sl."""
+"""sc2jax.replay_sl: supervised learning from human replays, without the game (paper §5).
+
+Replays are decoded with Blizzard's s2protocol (`archive`), their players told apart
+from the observers (`metadata`), and each player's actions labelled with PySC2 function
+calls, one per agent step (`actions`, through `abilities`).
+"""
+
+from sc2jax.replay_sl.actions import ActionLabels, Coverage, Step, label_actions
+from sc2jax.replay_sl.archive import Replay, ReplayError, open_replay
+from sc2jax.replay_sl.metadata import Player, ReplayMetadata, read_metadata
+
+__all__ = [name for name in dir() if not name.startswith("_")]

@@ -1,0 +1,338 @@
+"""A human player's game events -> PySC2 function calls, one per agent step.
+
+At the paper's step multiplier of 8, agent step t covers game loops [8t, 8t + 8). Its
+label is the first of the player's actions in those loops that maps to a PySC2 function,
+else `no_op`, as in the paper's section 5. The events map as follows:
+
+- a camera update: `move_camera` at the camera's new centre on the minimap;
+- a selection delta that adds one unit: `select_point` at the unit's screen point
+  (select, or toggle where the rest is kept); several units: `select_rect` around
+  their screen points (select, or add); units only removed: `select_point` toggle at
+  the first removed unit;
+- a control group's set, add, recall, or set or add with steal: `select_control_group`;
+- a command with an ability: `<Ability>_screen`, `_minimap` (by the command's minimap
+  flag), `_quick` or `_autocast`; without an ability (a right click): `Smart_screen` or
+  `Smart_minimap`;
+- a command's target update (the same command again, to a new target): the last
+  command's function at the new target.
+
+Screen points are the world point projected through the camera (orthographic, 24 world
+units across the screen's longer side), clipped to the screen. A unit's world point is
+its last one known: from the tracker events (born, placed, or reported in a positions
+event), or the target point of the player's last command to it, whichever is newer.
+What cannot be represented (a deleted control group, saved cameras, a command whose
+ability PySC2 has no function for) is counted in `Coverage`, never guessed.
+"""
+
+from __future__ import annotations
+
+import collections
+import dataclasses
+import heapq
+
+import numpy as np
+
+from sc2jax.environment.interface.camera import Camera, Minimap
+from sc2jax.environment.interface.functions import FUNCTIONS, FunctionCall, FunctionType
+from sc2jax.replay_sl.abilities import resolve
+from sc2jax.replay_sl.archive import Replay
+from sc2jax.replay_sl.metadata import ReplayMetadata
+
+STEP_MUL = 8
+ACTIVE_SELECTION = 10  # The control group id of the current selection in selection deltas.
+MINIMAP_FLAG = 0x10000  # A command's flag: issued on the minimap.
+QUEUED_FLAG = 0x2
+AUTOCAST_FLAG = 0x40
+_GROUP_ACTS = {0: "set", 1: "append", 2: "recall", 4: "set_and_steal", 5: "append_and_steal"}
+_TAG_INDEX_BITS = 18
+NOT_REPRESENTABLE = {
+    "SCameraSaveEvent": "saving a camera location (PySC2 has no function for it)",
+}
+"""Player actions that PySC2's functions cannot express, and why."""
+
+
+@dataclasses.dataclass(frozen=True)
+class Step:
+    """One agent step's label.
+
+    Attributes:
+      game_loop: the step's first game loop (a multiple of step_mul).
+      call: the PySC2 function call (`no_op` where the player did nothing mappable).
+      event: the game event's kind that gave the call ("" for no_op).
+    """
+
+    game_loop: int
+    call: FunctionCall
+    event: str = ""
+
+
+@dataclasses.dataclass
+class Coverage:
+    """How the player's game events mapped.
+
+    Attributes:
+      events: game events of the player, by kind (the part after `NNet.Game.S`).
+      mapped: of those, the ones that map to a PySC2 function call.
+      unmapped: the reasons the others do not, with counts.
+      labelled: mapped events that became a step's label (the first in their step).
+    """
+
+    events: collections.Counter = dataclasses.field(default_factory=collections.Counter)
+    mapped: collections.Counter = dataclasses.field(default_factory=collections.Counter)
+    unmapped: collections.Counter = dataclasses.field(default_factory=collections.Counter)
+    labelled: int = 0
+
+    def add(self, other: Coverage) -> None:
+        self.events.update(other.events)
+        self.mapped.update(other.mapped)
+        self.unmapped.update(other.unmapped)
+        self.labelled += other.labelled
+
+
+def unit_index(tag: int) -> int:
+    """A unit tag's index part (tracker events name units by index and recycle)."""
+    return tag >> _TAG_INDEX_BITS
+
+
+class _Positions:
+    """Each unit's last known world point, from tracker events and the player's commands."""
+
+    def __init__(self):
+        self.at: dict[int, tuple[float, float]] = {}
+
+    def tracker(self, event: dict) -> None:
+        kind = event["_event"]
+        if kind in ("NNet.Replay.Tracker.SUnitBornEvent", "NNet.Replay.Tracker.SUnitInitEvent"):
+            self.at[event["m_unitTagIndex"]] = (float(event["m_x"]), float(event["m_y"]))
+        elif kind == "NNet.Replay.Tracker.SUnitPositionsEvent":
+            index, items = event["m_firstUnitIndex"], event["m_items"]
+            for i in range(0, len(items) - 2, 3):
+                index += items[i]
+                self.at[index] = (float(items[i + 1]), float(items[i + 2]))
+        elif kind == "NNet.Replay.Tracker.SUnitDiedEvent":
+            self.at.pop(event["m_unitTagIndex"], None)
+
+    def get(self, tag: int) -> tuple[float, float] | None:
+        return self.at.get(unit_index(tag))
+
+
+def _point(data: dict, scale: float = 4096.0) -> tuple[float, float]:
+    return data["x"] / scale, data["y"] / scale
+
+
+class _Labeller:
+    """Turns one player's events, in game-loop order, into function calls."""
+
+    def __init__(self, metadata: ReplayMetadata, map_size: tuple[int, int],
+                 screen_size: int, minimap_size: int):
+        self.build = metadata.base_build
+        self.screen = Camera((screen_size, screen_size))
+        self.minimap = Minimap((minimap_size, minimap_size), map_size)
+        self.size, self.minimap_size = screen_size, minimap_size
+        self.camera = (map_size[0] / 2, map_size[1] / 2)
+        self.positions = _Positions()
+        self.selection: list[int] = []
+        self.last_command: tuple[int, dict] | None = None  # (function, its flags' call args)
+        self.group_loop = -1
+
+    # Projections.
+    def screen_xy(self, world) -> tuple[list[int], bool]:
+        px = self.screen.world_to_pixel(np.asarray(self.camera, np.float32),
+                                        np.asarray(world, np.float32))
+        inside = bool(0 <= px[0] < self.size and 0 <= px[1] < self.size)
+        clipped = [int(np.clip(v, 0, self.size - 1)) for v in px]
+        return clipped, inside
+
+    def minimap_xy(self, world) -> list[int]:
+        px = self.minimap.world_to_pixel(np.asarray(world, np.float32))
+        m = self.minimap_size - 1
+        return [int(np.clip(px[0], 0, m)), int(np.clip(px[1], 0, m))]
+
+    # Events.
+    def event(self, e: dict) -> tuple[FunctionCall | None, str]:
+        """The event's call, or None and the reason it has none."""
+        kind = e["_event"]
+        name = kind.rsplit(".", 1)[-1]
+        if name in NOT_REPRESENTABLE:
+            return None, NOT_REPRESENTABLE[name]
+        handler = getattr(self, "_" + name, None)
+        if handler is None:
+            return None, "not an action"
+        return handler(e)
+
+    def _SCameraUpdateEvent(self, e):
+        if e["m_target"] is None:
+            return None, "camera update without a target (zoom or follow)"
+        self.camera = _point(e["m_target"], 256.0)
+        return FUNCTIONS.move_camera(self.minimap_xy(self.camera)), ""
+
+    def _SControlGroupUpdateEvent(self, e):
+        act = _GROUP_ACTS.get(e["m_controlGroupUpdate"])
+        self.group_loop = e["_gameloop"]
+        if act is None:
+            return None, "control group deleted"
+        return FUNCTIONS.select_control_group(act, e["m_controlGroupIndex"]), ""
+
+    def _SSelectionDeltaEvent(self, e):
+        if e["m_controlGroupId"] != ACTIVE_SELECTION:
+            return None, "control group delta (follows a control group event)"
+        delta = e["m_delta"]
+        kept = self._apply_remove(delta["m_removeMask"])
+        removed = [t for t in self.selection if t not in kept]
+        added = list(delta["m_addUnitTags"])
+        self.selection = kept + added
+        if e["_gameloop"] == self.group_loop:
+            return None, "selection of a control group (follows a control group event)"
+        if not added:
+            if not removed:
+                return None, "empty selection delta"
+            return self._select_point("toggle", removed[0])
+        if len(added) == 1:
+            return self._select_point("toggle" if kept else "select", added[0])
+        points = [p for p in map(self.positions.get, added) if p is not None]
+        if not points:
+            return None, "selected units with unknown positions"
+        xs, ys = zip(*(self.screen_xy(p)[0] for p in points))
+        return FUNCTIONS.select_rect("add" if kept else "select", [min(xs), min(ys)],
+                                     [max(xs), max(ys)]), ""
+
+    def _select_point(self, act, tag):
+        point = self.positions.get(tag)
+        if point is None:
+            return None, "selected unit with an unknown position"
+        return FUNCTIONS.select_point(act, self.screen_xy(point)[0]), ""
+
+    def _apply_remove(self, mask: dict) -> list[int]:
+        kind, value = next(iter(mask.items()))
+        n = len(self.selection)
+        if kind == "None":
+            return list(self.selection)
+        if kind == "ZeroIndices":
+            return [self.selection[i] for i in value if i < n]
+        if kind == "OneIndices":
+            drop = set(value)
+            return [t for i, t in enumerate(self.selection) if i not in drop]
+        if kind == "Mask":
+            bits, length = value if isinstance(value, tuple) else (value, n)
+            return [t for i, t in enumerate(self.selection) if not (bits >> i) & 1]
+        return list(self.selection)
+
+    def _SCmdEvent(self, e):
+        data, flags = e["m_data"], e["m_cmdFlags"]
+        target = next(iter(data)) if isinstance(data, dict) else "None"
+        if target == "TargetPoint":
+            world = _point(data["TargetPoint"])
+        elif target == "TargetUnit":
+            world = _point(data["TargetUnit"]["m_snapshotPoint"])
+        else:
+            world = None
+        kind = (FunctionType.autocast if flags & AUTOCAST_FLAG else FunctionType.cmd_quick
+                if world is None else FunctionType.cmd_minimap if flags & MINIMAP_FLAG
+                else FunctionType.cmd_screen)
+        if e["m_abil"] is None:
+            if world is None:
+                return None, "right click without a target"
+            function = (FUNCTIONS.Smart_minimap if kind == FunctionType.cmd_minimap
+                        else FUNCTIONS.Smart_screen).id
+        else:
+            abil = e["m_abil"]
+            resolved = resolve(self.build, abil["m_abilLink"], abil["m_abilCmdIndex"], kind)
+            if resolved.function is None:
+                return None, f"no PySC2 function for {resolved.name} ({kind.name})"
+            function = resolved.function
+        self.last_command = (function, flags)
+        return self._command(function, flags, world)
+
+    def _command(self, function: int, flags: int, world):
+        f = FUNCTIONS[function]
+        args = []
+        for arg in f.args:
+            if arg.name == "queued":
+                args.append([int(bool(flags & QUEUED_FLAG))])
+            elif arg.name == "screen":
+                args.append(self.screen_xy(world)[0])
+            elif arg.name == "minimap":
+                args.append(self.minimap_xy(world))
+        if world is not None:  # The commanded units' newest known point: where they go.
+            for tag in self.selection:
+                self.positions.at[unit_index(tag)] = tuple(world)
+        return FunctionCall(f.id, args), ""
+
+    def _SCmdUpdateTargetPointEvent(self, e):
+        return self._update(_point(e["m_target"]))
+
+    def _SCmdUpdateTargetUnitEvent(self, e):
+        return self._update(_point(e["m_target"]["m_snapshotPoint"]))
+
+    def _update(self, world):
+        if self.last_command is None:
+            return None, "target update without a command"
+        function, flags = self.last_command
+        if not any(a.name in ("screen", "minimap") for a in FUNCTIONS[function].args):
+            return None, "target update of a command without a point"
+        return self._command(function, flags, world)
+
+
+def _merged(replay: Replay, user_id: int):
+    """The player's game events and every tracker event, in game-loop order (tracker
+    events first within a loop: they record the state that loop's actions saw)."""
+    game = ((e["_gameloop"], 1, i, e) for i, e in enumerate(replay.game_events())
+            if e["_userid"]["m_userId"] == user_id)
+    tracker = ((e["_gameloop"], 0, i, e) for i, e in enumerate(replay.tracker_events()))
+    for _, source, _, e in heapq.merge(game, tracker, key=lambda t: t[:3]):
+        yield source, e
+
+
+@dataclasses.dataclass
+class ActionLabels:
+    """A player's labels: `steps[t]` for agent step t, and how the events mapped."""
+
+    steps: list[Step]
+    coverage: Coverage
+
+
+def label_actions(replay: Replay, metadata: ReplayMetadata, player_id: int, *,
+                  screen_size: int = 64, minimap_size: int = 64,
+                  step_mul: int = STEP_MUL) -> ActionLabels:
+    """PySC2 function calls of one player, one per agent step of `step_mul` game loops.
+
+    Args:
+      replay, metadata: the replay (`open_replay`) and its metadata (`read_metadata`).
+      player_id: 1-based.
+      screen_size, minimap_size: the feature layers' resolution the points are in.
+      step_mul: game loops per agent step (8 in the paper).
+
+    Raises:
+      ValueError: for a player not in the replay, or a bad size or step_mul.
+    """
+    for name, value, low in (("screen_size", screen_size, 1), ("minimap_size", minimap_size, 1),
+                             ("step_mul", step_mul, 1)):
+        if isinstance(value, bool) or not isinstance(value, int) or value < low:
+            raise ValueError(f"{name} must be an int >= {low}, got {value!r}")
+    player = metadata.player(player_id)
+    description = replay.initdata["m_syncLobbyState"]["m_gameDescription"]
+    map_size = (int(description["m_mapSizeX"]), int(description["m_mapSizeY"]))
+    labeller = _Labeller(metadata, map_size, screen_size, minimap_size)
+    coverage = Coverage()
+    num_steps = replay.game_loops // step_mul + 1
+    calls: list[tuple[FunctionCall, str] | None] = [None] * num_steps
+    for source, e in _merged(replay, player.user_id):
+        if source == 0:
+            labeller.positions.tracker(e)
+            continue
+        kind = e["_event"].rsplit(".", 1)[-1][1:]
+        coverage.events[kind] += 1
+        call, reason = labeller.event(e)
+        if call is None:
+            coverage.unmapped[f"{kind}: {reason}"] += 1
+            continue
+        coverage.mapped[kind] += 1
+        t = min(e["_gameloop"] // step_mul, num_steps - 1)
+        if calls[t] is None:
+            calls[t] = (call, kind)
+            coverage.labelled += 1
+    no_op = FunctionCall(FUNCTIONS.no_op.id, [])
+    steps = [Step(t * step_mul, *(c if c is not None else (no_op, "")))
+             for t, c in enumerate(calls)]
+    return ActionLabels(steps, coverage)
+

@@ -1,0 +1,130 @@
+"""Replay decoding and action labels on the professional replays in ../shared/replays."""
+
+import json
+import pathlib
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+from sc2jax.environment.interface.camera import Camera
+from sc2jax.environment.interface.functions import FUNCTIONS, FunctionType
+from sc2jax.replay_sl import ReplayError, label_actions, open_replay, read_metadata
+from sc2jax.replay_sl.abilities import function_of_ability, resolve
+from sc2jax.replay_sl.archive import protocol_build_for
+from sc2jax.replay_sl.metadata import clean_name
+
+REPLAYS = pathlib.Path(__file__).parents[3] / "shared" / "replays"
+if not REPLAYS.is_dir():
+    pytest.skip(f"the replays are not at {REPLAYS}", allow_module_level=True)
+MANIFEST = {r["file"]: r for r in json.loads((REPLAYS / "MANIFEST.json").read_text())["replays"]}
+KAIROS = "asus_rog/0001_KairosJunction.SC2Replay"  # 4.9.3, base build 75025
+SLEEPERS = "nation_wars/0241_WorldofSleepers.SC2Replay"  # 4.10.4: no protocol of its own
+
+
+@pytest.mark.parametrize("name", [KAIROS, SLEEPERS, "nation_wars/0328_Triton.SC2Replay"])
+def test_metadata_matches_the_manifest(name):
+    replay = open_replay(REPLAYS / name)
+    meta, expected = read_metadata(replay), MANIFEST[name]
+    assert meta.base_build == expected["base_build"] and meta.version == expected["version"]
+    assert meta.game_loops == expected["game_loops"] and meta.map_name == expected["map"]
+    assert [(p.player_id, p.race, p.result) for p in meta.players] == [
+        (i + 1, p["race"], p["result"]) for i, p in enumerate(expected["players"])]
+    assert [p.name for p in meta.players] == [clean_name(p["name"].encode())
+                                              for p in expected["players"]]
+
+
+def test_a_build_without_a_protocol_decodes_with_the_nearest_lower_one():
+    assert protocol_build_for(76811) == 76114 and protocol_build_for(75025) == 75025
+    replay = open_replay(REPLAYS / SLEEPERS)  # validated while opening
+    assert replay.base_build == 76811 and replay.protocol_build == 76114
+    with pytest.raises(ValueError, match="older than every protocol"):
+        protocol_build_for(100)
+
+
+def test_observers_are_not_players_and_their_events_are_not_labelled():
+    replay = open_replay(REPLAYS / KAIROS)
+    meta = read_metadata(replay)
+    assert [p.user_id for p in meta.players] == [2, 4]
+    assert set(meta.observer_user_ids) == {0, 1, 3, 5, 6, 7}
+    per_user = {}
+    for e in replay.game_events():
+        per_user[e["_userid"]["m_userId"]] = per_user.get(e["_userid"]["m_userId"], 0) + 1
+    labels = label_actions(replay, meta, 1)
+    assert sum(labels.coverage.events.values()) == per_user[2]
+    with pytest.raises(ValueError, match=r"player 3 is not in this replay; its players are"):
+        label_actions(replay, meta, 3)
+
+
+def test_a_known_command_at_a_known_loop():
+    # Player 1 (user 2) orders a supply depot at game loop 377 (TerranBuild, command 1) at
+    # world (38, 129): step 47 (loops 376..383) is Build_SupplyDepot_screen, now, at the
+    # point projected through the camera's centre of that moment.
+    replay = open_replay(REPLAYS / KAIROS)
+    labels = label_actions(replay, read_metadata(replay), 1)
+    camera = None
+    for e in replay.game_events():
+        if (e["_userid"]["m_userId"] == 2 and e["_event"].endswith("SCameraUpdateEvent")
+                and e["_gameloop"] <= 377 and e["m_target"] is not None):
+            camera = (e["m_target"]["x"] / 256, e["m_target"]["y"] / 256)
+    pixel = Camera((64, 64)).world_to_pixel(np.float32(camera), np.float32([38.0, 129.0]))
+    step = labels.steps[377 // 8]
+    assert step.game_loop == 376 and step.event == "CmdEvent"
+    assert step.call.function == FUNCTIONS.Build_SupplyDepot_screen.id
+    assert step.call.arguments == [[0], [int(pixel[0]), int(pixel[1])]]
+    # Steps without an action are no_op, and there is one step per 8 loops.
+    assert len(labels.steps) == replay.game_loops // 8 + 1
+    assert labels.steps[1].game_loop == 8
+
+
+def test_the_camera_projection_is_pysc2s():
+    # 24 world units across 64 pixels: 8/3 pixels per unit, the camera's centre at the
+    # screen's centre, y down on the screen.
+    camera = Camera((64, 64))
+    px = camera.world_to_pixel(np.float32([50, 50]), np.float32([[50, 50], [56, 50], [50, 56]]))
+    np.testing.assert_allclose(px, [[32, 32], [48, 32], [32, 16]], atol=1e-4)
+
+
+def test_abilities_map_to_pysc2_functions():
+    # Link 155 of 4.9.3 trains an SCV; TerranBuild/1 is the supply depot; right clicks and
+    # attacks go to the general functions, as PySC2's reverse_action does.
+    assert resolve(75025, 155, 0, FunctionType.cmd_quick).function == FUNCTIONS.Train_SCV_quick.id
+    assert resolve(76114, 129, 1, FunctionType.cmd_screen).function == (
+        FUNCTIONS.Build_SupplyDepot_screen.id)
+    assert function_of_ability(23, FunctionType.cmd_screen) == FUNCTIONS.Attack_screen.id
+    assert function_of_ability(23, FunctionType.cmd_minimap) == FUNCTIONS.Attack_minimap.id
+    assert resolve(76114, 10**6, 0, FunctionType.cmd_quick).function is None
+
+
+def test_a_corrupt_and_a_truncated_file_are_replay_errors(tmp_path):
+    corrupt = tmp_path / "corrupt.SC2Replay"
+    corrupt.write_bytes(b"MPQ\x1b" + bytes(range(256)) * 40)
+    with pytest.raises(ReplayError, match="corrupt.SC2Replay"):
+        open_replay(corrupt)
+    data = (REPLAYS / KAIROS).read_bytes()
+    truncated = tmp_path / "truncated.SC2Replay"
+    truncated.write_bytes(data[:len(data) // 2])
+    with pytest.raises(ReplayError, match="truncated.SC2Replay"):
+        replay = open_replay(truncated)
+        for _ in replay.game_events():
+            pass
+    with pytest.raises(FileNotFoundError, match="no replay file"):
+        open_replay(tmp_path / "missing.SC2Replay")
+
+
+def test_replay_info_writes_the_steps_as_json(tmp_path):
+    out = tmp_path / "actions.json"
+    result = subprocess.run([sys.executable, "-m", "sc2jax.experiments.replay_info",
+                             str(REPLAYS / SLEEPERS), "--actions", "--player=2",
+                             f"--output={out}"], capture_output=True, text=True, timeout=300)
+    assert result.returncode == 0, result.stderr[-2000:]
+    assert "player 2: BlyOnFire (Zerg), Win" in result.stdout
+    data = json.loads(out.read_text())
+    assert data["metadata"]["base_build"] == 76811
+    assert data["metadata"]["players"][1] == {"player_id": 2, "name": "BlyOnFire",
+                                              "race": "Zerg", "result": "Win"}
+    steps = data["steps"]
+    assert len(steps) == 12550 // 8 + 1 and steps[0] == {
+        "game_loop": 0, "function": 1, "name": "move_camera", "arguments": [[11, 55]]}
+    assert any(s["name"] == "no_op" and s["arguments"] == [] for s in steps)
