@@ -2,11 +2,13 @@
 
 Replays are decoded with Blizzard's s2protocol (`archive`), their players told apart
 from the observers (`metadata`), and each player's actions labelled with PySC2 function
-calls, one per agent step (`actions`, through `abilities`).
+calls, one per agent step (`actions`, through `abilities`). `units` gathers the
+tracker events into a table of every unit, which observations are built from.
 """
 
-from sc2jax.replay_sl.actions import ActionLabels, Coverage, Step, label_actions
+from sc2jax.replay_sl.actions import ActionLabels, Coverage, Step, label_actions, label_players
 from sc2jax.replay_sl.archive import Replay, ReplayError, open_replay
 from sc2jax.replay_sl.metadata import Player, ReplayMetadata, read_metadata
+from sc2jax.replay_sl.units import UnitTable, unit_table
 
 __all__ = [name for name in dir() if not name.startswith("_")]

@@ -124,27 +124,28 @@ class _Labeller:
     """Turns one player's events, in game-loop order, into function calls."""
 
     def __init__(self, metadata: ReplayMetadata, map_size: tuple[int, int],
-                 screen_size: int, minimap_size: int):
+                 screen_size: int, minimap_size: int, positions: _Positions):
         self.build = metadata.base_build
         self.screen = Camera((screen_size, screen_size))
         self.minimap = Minimap((minimap_size, minimap_size), map_size)
         self.size, self.minimap_size = screen_size, minimap_size
         self.camera = (map_size[0] / 2, map_size[1] / 2)
-        self.positions = _Positions()
+        self.positions = positions
         self.selection: list[int] = []
         self.last_command: tuple[int, dict] | None = None  # (function, its flags' call args)
         self.group_loop = -1
 
     # Projections.
+    # numpy [1, 2] points, so that the transforms run on numpy, not jax.
     def screen_xy(self, world) -> tuple[list[int], bool]:
         px = self.screen.world_to_pixel(np.asarray(self.camera, np.float32),
-                                        np.asarray(world, np.float32))
+                                        np.asarray([world], np.float32))[0]
         inside = bool(0 <= px[0] < self.size and 0 <= px[1] < self.size)
         clipped = [int(np.clip(v, 0, self.size - 1)) for v in px]
         return clipped, inside
 
     def minimap_xy(self, world) -> list[int]:
-        px = self.minimap.world_to_pixel(np.asarray(world, np.float32))
+        px = self.minimap.world_to_pixel(np.asarray([world], np.float32))[0]
         m = self.minimap_size - 1
         return [int(np.clip(px[0], 0, m)), int(np.clip(px[1], 0, m))]
 
@@ -273,11 +274,11 @@ class _Labeller:
         return self._command(function, flags, world)
 
 
-def _merged(replay: Replay, user_id: int):
-    """The player's game events and every tracker event, in game-loop order (tracker
+def _merged(replay: Replay, user_ids: set[int]):
+    """The players' game events and every tracker event, in game-loop order (tracker
     events first within a loop: they record the state that loop's actions saw)."""
     game = ((e["_gameloop"], 1, i, e) for i, e in enumerate(replay.game_events())
-            if e["_userid"]["m_userId"] == user_id)
+            if e["_userid"]["m_userId"] in user_ids)
     tracker = ((e["_gameloop"], 0, i, e) for i, e in enumerate(replay.tracker_events()))
     for _, source, _, e in heapq.merge(game, tracker, key=lambda t: t[:3]):
         yield source, e
@@ -305,34 +306,49 @@ def label_actions(replay: Replay, metadata: ReplayMetadata, player_id: int, *,
     Raises:
       ValueError: for a player not in the replay, or a bad size or step_mul.
     """
-    for name, value, low in (("screen_size", screen_size, 1), ("minimap_size", minimap_size, 1),
-                             ("step_mul", step_mul, 1)):
-        if isinstance(value, bool) or not isinstance(value, int) or value < low:
-            raise ValueError(f"{name} must be an int >= {low}, got {value!r}")
-    player = metadata.player(player_id)
+    return label_players(replay, metadata, (player_id,), screen_size=screen_size,
+                         minimap_size=minimap_size, step_mul=step_mul)[player_id]
+
+
+def label_players(replay: Replay, metadata: ReplayMetadata, player_ids=None, *,
+                  screen_size: int = 64, minimap_size: int = 64,
+                  step_mul: int = STEP_MUL) -> dict[int, ActionLabels]:
+    """`label_actions` for several players (default: all) in one pass over the events.
+
+    Returns:
+      player id -> its `ActionLabels`.
+    """
+    for name, value in (("screen_size", screen_size), ("minimap_size", minimap_size),
+                        ("step_mul", step_mul)):
+        if isinstance(value, bool) or not isinstance(value, int) or value < 1:
+            raise ValueError(f"{name} must be an int >= 1, got {value!r}")
+    players = [metadata.player(p) for p in (player_ids or [p.player_id for p in
+                                                           metadata.players])]
     description = replay.initdata["m_syncLobbyState"]["m_gameDescription"]
     map_size = (int(description["m_mapSizeX"]), int(description["m_mapSizeY"]))
-    labeller = _Labeller(metadata, map_size, screen_size, minimap_size)
-    coverage = Coverage()
     num_steps = replay.game_loops // step_mul + 1
-    calls: list[tuple[FunctionCall, str] | None] = [None] * num_steps
-    for source, e in _merged(replay, player.user_id):
+    positions = _Positions()  # Shared: the tracker's points are every player's.
+    labellers = {p.user_id: _Labeller(metadata, map_size, screen_size, minimap_size, positions)
+                 for p in players}
+    coverage = {u: Coverage() for u in labellers}
+    calls = {u: [None] * num_steps for u in labellers}
+    for source, e in _merged(replay, set(labellers)):
         if source == 0:
-            labeller.positions.tracker(e)
+            positions.tracker(e)
             continue
+        user = e["_userid"]["m_userId"]
         kind = e["_event"].rsplit(".", 1)[-1][1:]
-        coverage.events[kind] += 1
-        call, reason = labeller.event(e)
+        coverage[user].events[kind] += 1
+        call, reason = labellers[user].event(e)
         if call is None:
-            coverage.unmapped[f"{kind}: {reason}"] += 1
+            coverage[user].unmapped[f"{kind}: {reason}"] += 1
             continue
-        coverage.mapped[kind] += 1
+        coverage[user].mapped[kind] += 1
         t = min(e["_gameloop"] // step_mul, num_steps - 1)
-        if calls[t] is None:
-            calls[t] = (call, kind)
-            coverage.labelled += 1
+        if calls[user][t] is None:
+            calls[user][t] = (call, kind)
+            coverage[user].labelled += 1
     no_op = FunctionCall(FUNCTIONS.no_op.id, [])
-    steps = [Step(t * step_mul, *(c if c is not None else (no_op, "")))
-             for t, c in enumerate(calls)]
-    return ActionLabels(steps, coverage)
-
+    return {p.player_id: ActionLabels(
+        [Step(t * step_mul, *(c if c is not None else (no_op, "")))
+         for t, c in enumerate(calls[p.user_id])], coverage[p.user_id]) for p in players}

@@ -14,6 +14,7 @@ from sc2jax.replay_sl import ReplayError, label_actions, open_replay, read_metad
 from sc2jax.replay_sl.abilities import function_of_ability, resolve
 from sc2jax.replay_sl.archive import protocol_build_for
 from sc2jax.replay_sl.metadata import clean_name
+from sc2jax.replay_sl.units import stable_unit_ids, unit_table
 
 REPLAYS = pathlib.Path(__file__).parents[3] / "shared" / "replays"
 if not REPLAYS.is_dir():
@@ -128,3 +129,17 @@ def test_replay_info_writes_the_steps_as_json(tmp_path):
     assert len(steps) == 12550 // 8 + 1 and steps[0] == {
         "game_loop": 0, "function": 1, "name": "move_camera", "arguments": [[11, 55]]}
     assert any(s["name"] == "no_op" and s["arguments"] == [] for s in steps)
+
+
+def test_the_unit_table_counts_the_workers_that_player_stats_report():
+    # The Terran's SCVs alive at each PlayerStats event (every 160 loops), counted from
+    # births, deaths, type and owner changes, equal the game's own worker count.
+    replay = open_replay(REPLAYS / KAIROS)
+    table = unit_table(replay)
+    scv = stable_unit_ids()["SCV"]
+    loops, values = table.stats[1]
+    reported = values[:, table.stat_names.index("m_scoreValueWorkersActiveCount")]
+    counted = [int((table.alive(L) & (table.owners_at(L) == 1) & (table.types_at(L) == scv))
+                   .sum()) for L in loops]
+    assert len(loops) > 100 and counted == reported.astype(int).tolist()
+    assert (table.unit_type > 0).all() and (table.died >= table.born).all()
