@@ -1,8 +1,9 @@
 """A replay's metadata: map, build, length, and its players apart from the observers.
 
 Players are the details' player list, in order (player ids 1, 2, ...). Each is matched
-to its game-event user id through its lobby slot (`m_workingSetSlotId`); every other
-user in the lobby (observers, casters) is left out. Races come from the lobby's
+to its game-event user id through its lobby slot (`m_workingSetSlotId`), or, where the
+details name no slot, through the tracker's PlayerSetup event; every other user in the
+lobby (observers, casters) is left out. Races come from the lobby's
 attributes (the details' race strings are in the recording client's language); a random
 pick's race is read from the first town hall or worker the player owns.
 """
@@ -90,9 +91,13 @@ def read_metadata(replay: Replay) -> ReplayMetadata:
     user_of_slot = {s["m_workingSetSlotId"]: s["m_userId"] for s in slots}
     scopes = replay.attributes.get("scopes", {})
     players, random_race = [], []
+    setup = None
     for index, entry in enumerate(replay.details["m_playerList"]):
         player_id = index + 1
         user_id = user_of_slot.get(entry["m_workingSetSlotId"])
+        if user_id is None:  # No working-set slot: the tracker's player setup names it.
+            setup = _player_setup(replay) if setup is None else setup
+            user_id = setup.get(player_id)
         if user_id is None:
             raise ReplayError(replay.path, f"player {player_id} has no user in the lobby")
         code = next((a["value"] for a in scopes.get(player_id, {}).get(RACE_ATTRIBUTE, [])),
@@ -116,6 +121,17 @@ def read_metadata(replay: Replay) -> ReplayMetadata:
                           base_build=replay.base_build, version=replay.version,
                           game_loops=replay.game_loops, players=tuple(players),
                           observer_user_ids=tuple(observers))
+
+
+def _player_setup(replay: Replay) -> dict[int, int]:
+    """Player id -> user id from the tracker's PlayerSetup events (at the first loop)."""
+    users = {}
+    for event in replay.tracker_events():
+        if event["_gameloop"] > 0:
+            break
+        if event["_event"] == "NNet.Replay.Tracker.SPlayerSetupEvent":
+            users[event["m_playerId"]] = event["m_userId"]
+    return users
 
 
 def _races_from_units(replay: Replay, player_ids: set[int]) -> dict[int, str]:

@@ -24,7 +24,9 @@ KAIROS = "asus_rog/0001_KairosJunction.SC2Replay"  # 4.9.3, base build 75025
 SLEEPERS = "nation_wars/0241_WorldofSleepers.SC2Replay"  # 4.10.4: no protocol of its own
 
 
-@pytest.mark.parametrize("name", [KAIROS, SLEEPERS, "nation_wars/0328_Triton.SC2Replay"])
+# 0143: the details name no lobby slot; the tracker's PlayerSetup events do.
+@pytest.mark.parametrize("name", [KAIROS, SLEEPERS, "nation_wars/0328_Triton.SC2Replay",
+                                  "asus_rog/0143_Thunderbird.SC2Replay"])
 def test_metadata_matches_the_manifest(name):
     replay = open_replay(REPLAYS / name)
     meta, expected = read_metadata(replay), MANIFEST[name]
