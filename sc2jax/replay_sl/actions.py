@@ -29,6 +29,7 @@ from __future__ import annotations
 import collections
 import dataclasses
 import heapq
+from typing import NamedTuple
 
 import numpy as np
 
@@ -64,6 +65,21 @@ class Step:
     game_loop: int
     call: FunctionCall
     event: str = ""
+
+
+class Order(NamedTuple):
+    """A command with a target point, to the units selected when it was given.
+
+    Attributes:
+      game_loop: when it was given.
+      units: the selected units' tag indices (as tracker events name units).
+      x, y: the target point (world units).
+    """
+
+    game_loop: int
+    units: tuple[int, ...]
+    x: float
+    y: float
 
 
 @dataclasses.dataclass
@@ -133,6 +149,8 @@ class _Labeller:
         self.positions = positions
         self.selection: list[int] = []
         self.last_command: tuple[int, dict] | None = None  # (function, its flags' call args)
+        self.loop = 0
+        self.orders: list[Order] = []
         self.group_loop = -1
 
     # Projections.
@@ -153,6 +171,7 @@ class _Labeller:
     def event(self, e: dict) -> tuple[FunctionCall | None, str]:
         """The event's call, or None and the reason it has none."""
         kind = e["_event"]
+        self.loop = e["_gameloop"]
         name = kind.rsplit(".", 1)[-1]
         if name in NOT_REPRESENTABLE:
             return None, NOT_REPRESENTABLE[name]
@@ -255,8 +274,10 @@ class _Labeller:
             elif arg.name == "minimap":
                 args.append(self.minimap_xy(world))
         if world is not None:  # The commanded units' newest known point: where they go.
-            for tag in self.selection:
-                self.positions.at[unit_index(tag)] = tuple(world)
+            units = tuple(unit_index(tag) for tag in self.selection)
+            for index in units:
+                self.positions.at[index] = tuple(world)
+            self.orders.append(Order(self.loop, units, float(world[0]), float(world[1])))
         return FunctionCall(f.id, args), ""
 
     def _SCmdUpdateTargetPointEvent(self, e):
@@ -286,10 +307,12 @@ def _merged(replay: Replay, user_ids: set[int]):
 
 @dataclasses.dataclass
 class ActionLabels:
-    """A player's labels: `steps[t]` for agent step t, and how the events mapped."""
+    """A player's labels: `steps[t]` for agent step t, how the events mapped, and the
+    player's commands with a target point (`Order`s, in order)."""
 
     steps: list[Step]
     coverage: Coverage
+    orders: list[Order] = dataclasses.field(default_factory=list)
 
 
 def label_actions(replay: Replay, metadata: ReplayMetadata, player_id: int, *,
@@ -351,4 +374,5 @@ def label_players(replay: Replay, metadata: ReplayMetadata, player_ids=None, *,
     no_op = FunctionCall(FUNCTIONS.no_op.id, [])
     return {p.player_id: ActionLabels(
         [Step(t * step_mul, *(c if c is not None else (no_op, "")))
-         for t, c in enumerate(calls[p.user_id])], coverage[p.user_id]) for p in players}
+         for t, c in enumerate(calls[p.user_id])], coverage[p.user_id],
+        labellers[p.user_id].orders) for p in players}

@@ -10,10 +10,18 @@ import pytest
 
 from sc2jax.environment.interface.camera import Camera
 from sc2jax.environment.interface.functions import FUNCTIONS, FunctionType
-from sc2jax.replay_sl import ReplayError, label_actions, open_replay, read_metadata
+from sc2jax.replay_sl import (
+    ReplayError,
+    label_actions,
+    label_players,
+    open_replay,
+    read_metadata,
+)
 from sc2jax.replay_sl.abilities import function_of_ability, resolve
 from sc2jax.replay_sl.archive import protocol_build_for
 from sc2jax.replay_sl.metadata import clean_name
+from sc2jax.replay_sl.positions import errors as position_errors
+from sc2jax.replay_sl.positions import estimate
 from sc2jax.replay_sl.units import stable_unit_ids, unit_table
 
 REPLAYS = pathlib.Path(__file__).parents[3] / "shared" / "replays"
@@ -145,3 +153,28 @@ def test_the_unit_table_counts_the_workers_that_player_stats_report():
                    .sum()) for L in loops]
     assert len(loops) > 100 and counted == reported.astype(int).tolist()
     assert (table.unit_type > 0).all() and (table.died >= table.born).all()
+
+
+def test_position_estimates_by_hand():
+    # From (0, 0) at loop 0: an order to (10, 0) at loop 10, then to (10, 10) at loop 20;
+    # at 0.5 units a loop the unit walks 5 units by loop 20, then 5 up by loop 30.
+    orders = [(10, 10.0, 0.0), (20, 10.0, 10.0)]
+    assert estimate("last", (0, 0.0, 0.0), orders, 30, speed=0.5) == (0.0, 0.0)
+    assert estimate("target", (0, 0.0, 0.0), orders, 30, speed=0.5) == (10.0, 10.0)
+    x, y = estimate("move", (0, 0.0, 0.0), orders, 30, speed=0.5)
+    # (5, 0) -> towards (10, 10): 5 units along (5, 10)/|(5, 10)|.
+    np.testing.assert_allclose((x, y), (5 + 5 / np.sqrt(125) * 5, 5 / np.sqrt(125) * 10))
+    with pytest.raises(ValueError, match="unknown method 'teleport'"):
+        estimate("teleport", (0, 0.0, 0.0), orders, 30)
+
+
+def test_orders_bring_estimates_closer_to_the_tracker_reports():
+    # The tracker's positions reports of units that had orders since their last report:
+    # following the orders is closer than the last report (measured: medians 33.1 world
+    # units for the last report, 20.0 walking towards the orders' targets).
+    replay = open_replay(REPLAYS / KAIROS)
+    labels = label_players(replay, read_metadata(replay))
+    orders = [o for label in labels.values() for o in label.orders]
+    found = position_errors(unit_table(replay), orders)
+    assert found["last"].size == found["move"].size > 500
+    assert np.median(found["move"]) < 0.8 * np.median(found["last"])
