@@ -305,14 +305,38 @@ def _merged(replay: Replay, user_ids: set[int]):
         yield source, e
 
 
+class UnitPoints(NamedTuple):
+    """Every unit's last known world point at one game loop (see `_Positions`).
+
+    Attributes:
+      index: int64 [K] tag indices.
+      xy: float32 [K, 2] their points.
+    """
+
+    index: np.ndarray
+    xy: np.ndarray
+
+
 @dataclasses.dataclass
 class ActionLabels:
-    """A player's labels: `steps[t]` for agent step t, how the events mapped, and the
-    player's commands with a target point (`Order`s, in order)."""
+    """A player's labels and what the player saw, per agent step.
+
+    Attributes:
+      steps: `steps[t]` for agent step t.
+      coverage: how the player's events mapped.
+      orders: the player's commands with a target point, in order.
+      cameras: float32 [T, 2], the camera's centre at each step's first loop.
+      selections: the selected units' tags at each step's first loop.
+      unit_points: every unit's known point at each step's first loop (shared by the
+        players labelled together).
+    """
 
     steps: list[Step]
     coverage: Coverage
     orders: list[Order] = dataclasses.field(default_factory=list)
+    cameras: np.ndarray | None = None
+    selections: list[tuple[int, ...]] = dataclasses.field(default_factory=list)
+    unit_points: list[UnitPoints] = dataclasses.field(default_factory=list)
 
 
 def label_actions(replay: Replay, metadata: ReplayMetadata, player_id: int, *,
@@ -355,7 +379,26 @@ def label_players(replay: Replay, metadata: ReplayMetadata, player_ids=None, *,
                  for p in players}
     coverage = {u: Coverage() for u in labellers}
     calls = {u: [None] * num_steps for u in labellers}
+    cameras = {u: np.zeros((num_steps, 2), np.float32) for u in labellers}
+    selections: dict[int, list[tuple[int, ...]]] = {u: [] for u in labellers}
+    unit_points: list[UnitPoints] = []
+
+    def snapshot(until: int) -> None:
+        """Records the state at the first loop of every step that starts before `until`."""
+        while len(unit_points) < num_steps and len(unit_points) * step_mul < until:
+            t = len(unit_points)
+            index = np.fromiter(positions.at, np.int64, len(positions.at))
+            xy = np.asarray(list(positions.at.values()), np.float32).reshape(-1, 2)
+            unit_points.append(UnitPoints(index, xy))
+            for user, labeller in labellers.items():
+                cameras[user][t] = labeller.camera
+                selections[user].append(tuple(labeller.selection))
+
     for source, e in _merged(replay, set(labellers)):
+        # Step t's state (at loop t * step_mul) includes that loop's tracker events but
+        # not the player's actions in it: a game event at loop L closes the steps
+        # starting at or before L, a tracker event those starting before L.
+        snapshot(e["_gameloop"] + source)
         if source == 0:
             positions.tracker(e)
             continue
@@ -371,8 +414,10 @@ def label_players(replay: Replay, metadata: ReplayMetadata, player_ids=None, *,
         if calls[user][t] is None:
             calls[user][t] = (call, kind)
             coverage[user].labelled += 1
+    snapshot(num_steps * step_mul)
     no_op = FunctionCall(FUNCTIONS.no_op.id, [])
     return {p.player_id: ActionLabels(
         [Step(t * step_mul, *(c if c is not None else (no_op, "")))
          for t, c in enumerate(calls[p.user_id])], coverage[p.user_id],
-        labellers[p.user_id].orders) for p in players}
+        labellers[p.user_id].orders, cameras[p.user_id], selections[p.user_id],
+        unit_points) for p in players}

@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 
 from sc2jax.environment.interface.camera import Camera
+from sc2jax.environment.interface.features import MINIMAP_FEATURES, SCREEN_FEATURES
 from sc2jax.environment.interface.functions import FUNCTIONS, FunctionType
 from sc2jax.replay_sl import (
     ReplayError,
@@ -20,6 +21,7 @@ from sc2jax.replay_sl import (
 from sc2jax.replay_sl.abilities import function_of_ability, resolve
 from sc2jax.replay_sl.archive import protocol_build_for
 from sc2jax.replay_sl.metadata import clean_name
+from sc2jax.replay_sl.observations import View, observe_step
 from sc2jax.replay_sl.positions import errors as position_errors
 from sc2jax.replay_sl.positions import estimate
 from sc2jax.replay_sl.units import stable_unit_ids, unit_table
@@ -178,3 +180,48 @@ def test_orders_bring_estimates_closer_to_the_tracker_reports():
     found = position_errors(unit_table(replay), orders)
     assert found["last"].size == found["move"].size > 500
     assert np.median(found["move"]) < 0.8 * np.median(found["last"])
+
+
+@pytest.fixture(scope="module")
+def kairos():
+    replay = open_replay(REPLAYS / KAIROS)
+    labels = label_players(replay, read_metadata(replay))
+    d = replay.initdata["m_syncLobbyState"]["m_gameDescription"]
+    return unit_table(replay), labels, (d["m_mapSizeX"], d["m_mapSizeY"])
+
+
+def test_observations_follow_pysc2s_layers_and_the_fog(kairos):
+    table, labels, map_size = kairos
+    view = View(map_size)
+    first = observe_step(table, labels[1], 1, 1, view)  # loop 8: the start of the game
+    minimap, screen = first["feature_minimap"], first["feature_screen"]
+    assert minimap.shape == (11, 64, 64) and screen.shape == (27, 64, 64)
+    relative = minimap[MINIMAP_FEATURES.player_relative.index]
+    # The player's start (its Command Center and SCVs), the neutral minerals, and no
+    # enemy: the enemy's base is out of sight.
+    assert (relative == 1).any() and (relative == 3).any() and not (relative == 4).any()
+    full = observe_step(table, labels[1], 1, 1, View(map_size, full_information=True))
+    assert (full["feature_minimap"][MINIMAP_FEATURES.player_relative.index] == 4).any()
+    # The camera box on the minimap: 24 x 24 world units at 64/168 pixels per unit,
+    # about 9 x 9 pixels.
+    assert 64 <= minimap[MINIMAP_FEATURES.camera.index].sum() <= 110
+    # Units drawn are visible, and carry PySC2's ids: the Command Center's type.
+    types = set(np.unique(minimap[MINIMAP_FEATURES.unit_type.index]).tolist())
+    assert stable_unit_ids()["CommandCenter"] in types
+    seen = minimap[MINIMAP_FEATURES.visibility_map.index]
+    assert set(np.unique(seen).tolist()) == {0, 2} and (seen[relative == 1] == 2).all()
+    # The player vector from the first PlayerStats: 50 minerals, 12 of 15 supply.
+    np.testing.assert_array_equal(first["player"][:7], [1, 50, 0, 12, 15, 0, 12])
+    # Every layer within PySC2's scale.
+    for features, layers in ((MINIMAP_FEATURES, minimap), (SCREEN_FEATURES, screen)):
+        for f in features:
+            assert layers[f.index].min() >= 0 and layers[f.index].max() < f.scale, f.name
+
+
+def test_selected_units_are_drawn_selected(kairos):
+    table, labels, map_size = kairos
+    t = next(t for t, s in enumerate(labels[1].selections) if len(s) >= 2)
+    o = observe_step(table, labels[1], t, 1, View(map_size))
+    assert o["feature_minimap"][MINIMAP_FEATURES.selected.index].any()
+    with pytest.raises(ValueError, match="screen_size must be an int in 1..256, got 0"):
+        View(map_size, screen_size=0)

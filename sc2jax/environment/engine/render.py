@@ -21,7 +21,7 @@ from sc2jax.environment.engine.rules.units import UNIT_DATA, UnitType
 from sc2jax.environment.engine.xla.fusion import materialize
 from sc2jax.environment.interface.camera import Camera, Minimap
 from sc2jax.environment.interface.feature_units import ratio_255
-from sc2jax.environment.interface.features import PlayerRelative, Visibility
+from sc2jax.environment.interface.features import DENSITY, PlayerRelative, Visibility
 from sc2jax.environment.interface.specs import ObservationFormat
 
 # Drawing order: higher layers are drawn over lower ones.
@@ -66,8 +66,6 @@ STATIC_TERRAIN = ("height_map", "pathable", "buildable")
 """Map layers read from the map's static grids alone: the same in every observation of a
 view that never moves (the minimap)."""
 
-DENSITY = {"unit_density": (1, 15), "unit_density_aa": (16, 255)}
-"""Density layer -> (multiplier, cap) applied to the number of units at a pixel."""
 
 
 def player_relative(owner):

@@ -57,10 +57,12 @@ class Camera:
         return jnp.stack([wx, wy], axis=-1)
 
     def pixel_centers(self, center):
-        """Returns (xs float32[sx], ys float32[sy]): world x of each column, y of each row."""
+        """Returns (xs float32[sx], ys float32[sy]): world x of each column, y of each row
+        (numpy for a numpy `center`, else jax)."""
         sx, sy = self.size
-        xs = center[0] + (jnp.arange(sx, dtype=jnp.float32) + 0.5 - sx / 2) / self.pixels_per_unit
-        ys = center[1] - (jnp.arange(sy, dtype=jnp.float32) + 0.5 - sy / 2) / self.pixels_per_unit
+        xp = array_module(center)
+        xs = center[0] + (xp.arange(sx, dtype=xp.float32) + 0.5 - sx / 2) / self.pixels_per_unit
+        ys = center[1] - (xp.arange(sy, dtype=xp.float32) + 0.5 - sy / 2) / self.pixels_per_unit
         return xs, ys
 
     def view_half_extent(self) -> tuple[float, float]:

@@ -16,6 +16,8 @@ UNIT_TYPE_SCALE = 1962
 
 BUFFS_SCALE = 290
 """max(static_data.BUFFS) + 1 in PySC2 v4."""
+DENSITY = {"unit_density": (1, 15), "unit_density_aa": (16, 255)}
+"""Density layer -> (multiplier, cap) applied to the number of units at a pixel."""
 
 
 class FeatureType(enum.Enum):
