@@ -38,6 +38,7 @@ from sc2jax.environment.interface.functions import FUNCTIONS, FunctionCall, Func
 from sc2jax.replay_sl.abilities import resolve
 from sc2jax.replay_sl.archive import Replay
 from sc2jax.replay_sl.metadata import ReplayMetadata
+from sc2jax.replay_sl.units import reported_positions, unit_index
 
 STEP_MUL = 8
 ACTIVE_SELECTION = 10  # The control group id of the current selection in selection deltas.
@@ -45,7 +46,6 @@ MINIMAP_FLAG = 0x10000  # A command's flag: issued on the minimap.
 QUEUED_FLAG = 0x2
 AUTOCAST_FLAG = 0x40
 _GROUP_ACTS = {0: "set", 1: "append", 2: "recall", 4: "set_and_steal", 5: "append_and_steal"}
-_TAG_INDEX_BITS = 18
 NOT_REPRESENTABLE = {
     "SCameraSaveEvent": "saving a camera location (PySC2 has no function for it)",
 }
@@ -98,17 +98,6 @@ class Coverage:
     unmapped: collections.Counter = dataclasses.field(default_factory=collections.Counter)
     labelled: int = 0
 
-    def add(self, other: Coverage) -> None:
-        self.events.update(other.events)
-        self.mapped.update(other.mapped)
-        self.unmapped.update(other.unmapped)
-        self.labelled += other.labelled
-
-
-def unit_index(tag: int) -> int:
-    """A unit tag's index part (tracker events name units by index and recycle)."""
-    return tag >> _TAG_INDEX_BITS
-
 
 class _Positions:
     """Each unit's last known world point, from tracker events and the player's commands."""
@@ -121,10 +110,8 @@ class _Positions:
         if kind in ("NNet.Replay.Tracker.SUnitBornEvent", "NNet.Replay.Tracker.SUnitInitEvent"):
             self.at[event["m_unitTagIndex"]] = (float(event["m_x"]), float(event["m_y"]))
         elif kind == "NNet.Replay.Tracker.SUnitPositionsEvent":
-            index, items = event["m_firstUnitIndex"], event["m_items"]
-            for i in range(0, len(items) - 2, 3):
-                index += items[i]
-                self.at[index] = (float(items[i + 1]), float(items[i + 2]))
+            for index, x, y in reported_positions(event):
+                self.at[index] = (float(x), float(y))
         elif kind == "NNet.Replay.Tracker.SUnitDiedEvent":
             self.at.pop(event["m_unitTagIndex"], None)
 
@@ -148,19 +135,16 @@ class _Labeller:
         self.camera = (map_size[0] / 2, map_size[1] / 2)
         self.positions = positions
         self.selection: list[int] = []
-        self.last_command: tuple[int, dict] | None = None  # (function, its flags' call args)
+        self.last_command: tuple[int, int] | None = None  # (function, command flags)
         self.loop = 0
         self.orders: list[Order] = []
         self.group_loop = -1
 
-    # Projections.
-    # numpy [1, 2] points, so that the transforms run on numpy, not jax.
-    def screen_xy(self, world) -> tuple[list[int], bool]:
+    # Projections, of numpy [1, 2] points so that the transforms run on numpy, not jax.
+    def screen_xy(self, world) -> list[int]:
         px = self.screen.world_to_pixel(np.asarray(self.camera, np.float32),
                                         np.asarray([world], np.float32))[0]
-        inside = bool(0 <= px[0] < self.size and 0 <= px[1] < self.size)
-        clipped = [int(np.clip(v, 0, self.size - 1)) for v in px]
-        return clipped, inside
+        return [int(np.clip(v, 0, self.size - 1)) for v in px]
 
     def minimap_xy(self, world) -> list[int]:
         px = self.minimap.world_to_pixel(np.asarray([world], np.float32))[0]
@@ -212,7 +196,7 @@ class _Labeller:
         points = [p for p in map(self.positions.get, added) if p is not None]
         if not points:
             return None, "selected units with unknown positions"
-        xs, ys = zip(*(self.screen_xy(p)[0] for p in points))
+        xs, ys = zip(*(self.screen_xy(p) for p in points))
         return FUNCTIONS.select_rect("add" if kept else "select", [min(xs), min(ys)],
                                      [max(xs), max(ys)]), ""
 
@@ -220,7 +204,7 @@ class _Labeller:
         point = self.positions.get(tag)
         if point is None:
             return None, "selected unit with an unknown position"
-        return FUNCTIONS.select_point(act, self.screen_xy(point)[0]), ""
+        return FUNCTIONS.select_point(act, self.screen_xy(point)), ""
 
     def _apply_remove(self, mask: dict) -> list[int]:
         kind, value = next(iter(mask.items()))
@@ -232,8 +216,8 @@ class _Labeller:
         if kind == "OneIndices":
             drop = set(value)
             return [t for i, t in enumerate(self.selection) if i not in drop]
-        if kind == "Mask":
-            bits, length = value if isinstance(value, tuple) else (value, n)
+        if kind == "Mask":  # s2protocol's (length, bits); bit i taken as index i.
+            _, bits = value
             return [t for i, t in enumerate(self.selection) if not (bits >> i) & 1]
         return list(self.selection)
 
@@ -270,7 +254,7 @@ class _Labeller:
             if arg.name == "queued":
                 args.append([int(bool(flags & QUEUED_FLAG))])
             elif arg.name == "screen":
-                args.append(self.screen_xy(world)[0])
+                args.append(self.screen_xy(world))
             elif arg.name == "minimap":
                 args.append(self.minimap_xy(world))
         if world is not None:  # The commanded units' newest known point: where they go.

@@ -31,7 +31,7 @@ from sc2jax.environment.interface.camera import Camera, Minimap
 from sc2jax.environment.interface.features import DENSITY, MINIMAP_FEATURES, SCREEN_FEATURES
 from sc2jax.environment.interface.observation_tables import Player
 from sc2jax.replay_sl.actions import ActionLabels, UnitPoints
-from sc2jax.replay_sl.units import NEVER, UnitTable
+from sc2jax.replay_sl.units import NEVER, UnitTable, unit_index
 
 UNIT_RADIUS = 0.5
 """World units: every unit's radius (replays do not record unit footprints)."""
@@ -203,7 +203,7 @@ def unit_points(table: UnitTable, known: UnitPoints, game_loop: int) -> np.ndarr
     points = np.stack([table.x, table.y], axis=-1)
     if len(known.index):
         alive = np.flatnonzero(table.alive(game_loop))
-        rows = dict(zip((table.tag[alive] >> 18).tolist(), alive.tolist()))
+        rows = dict(zip(unit_index(table.tag[alive]).tolist(), alive.tolist()))
         hit = [(rows[i], n) for n, i in enumerate(known.index.tolist()) if i in rows]
         if hit:
             r, n = np.asarray(hit).T

@@ -23,7 +23,7 @@ import collections
 import numpy as np
 
 from sc2jax.replay_sl.actions import Order
-from sc2jax.replay_sl.units import UnitTable
+from sc2jax.replay_sl.units import UnitTable, unit_index
 
 METHODS = ("last", "target", "move")
 SPEED = 3.15 / 22.4
@@ -81,7 +81,7 @@ def errors(table: UnitTable, orders: list[Order], owner_ids: tuple[int, ...] = (
     """
     by_unit = orders_by_unit(orders)
     known: dict[int, list[tuple[int, float, float]]] = collections.defaultdict(list)
-    index_of_row = table.tag >> 18
+    index_of_row = unit_index(table.tag)
     for row in range(len(table.tag)):
         known[row].append((int(table.born[row]), float(table.x[row]), float(table.y[row])))
     out = {m: [] for m in METHODS}

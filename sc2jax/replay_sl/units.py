@@ -21,7 +21,22 @@ from sc2jax.replay_sl.archive import Replay
 
 NEVER = np.iinfo(np.int32).max
 """The game loop of an event that never happened (a unit still alive at the end)."""
+TAG_INDEX_BITS = 18
+"""A unit's tag is (index << 18) | recycle; tracker events name units by index."""
 _TRACKER = "NNet.Replay.Tracker.S"
+
+
+def unit_index(tag):
+    """A unit tag's index part (an int, or an int array elementwise)."""
+    return tag >> TAG_INDEX_BITS
+
+
+def reported_positions(event: dict):
+    """The (tag index, x, y) of each unit in a tracker UnitPositions event."""
+    index, items = event["m_firstUnitIndex"], event["m_items"]
+    for i in range(0, len(items) - 2, 3):
+        index += items[i]
+        yield index, items[i + 1], items[i + 2]
 
 
 @functools.cache
@@ -99,7 +114,7 @@ def unit_table(replay: Replay) -> UnitTable:
     def add(e, complete: bool) -> None:
         index, loop = e["m_unitTagIndex"], e["_gameloop"]
         row_of[index] = len(rows["tag"])
-        for key, value in (("tag", (index << 18) | e["m_unitTagRecycle"]),
+        for key, value in (("tag", (index << TAG_INDEX_BITS) | e["m_unitTagRecycle"]),
                            ("unit_type", ids.get(e["m_unitTypeName"].decode(), 0)),
                            ("owner", e["m_controlPlayerId"]), ("born", loop),
                            ("done", loop if complete else NEVER), ("died", NEVER),
@@ -129,11 +144,9 @@ def unit_table(replay: Replay) -> UnitTable:
             if row is not None:
                 owner_changes.append((loop, row, e["m_controlPlayerId"]))
         elif kind == "UnitPositionsEvent":
-            index, items = e["m_firstUnitIndex"], e["m_items"]
-            for i in range(0, len(items) - 2, 3):
-                index += items[i]
+            for index, x, y in reported_positions(e):
                 if index in row_of:
-                    positions.append((loop, row_of[index], items[i + 1], items[i + 2]))
+                    positions.append((loop, row_of[index], x, y))
         elif kind == "UpgradeEvent":
             upgrades.append((loop, e["m_playerId"], e["m_upgradeTypeName"].decode()))
         elif kind == "PlayerStatsEvent":
