@@ -28,7 +28,12 @@ import dataclasses
 import numpy as np
 
 from sc2jax.environment.interface.camera import Camera, Minimap
-from sc2jax.environment.interface.features import DENSITY, MINIMAP_FEATURES, SCREEN_FEATURES
+from sc2jax.environment.interface.features import (
+    DENSITY,
+    MINIMAP_FEATURES,
+    SCREEN_FEATURES,
+    UNIT_TYPE_SCALE,
+)
 from sc2jax.environment.interface.observation_tables import Player
 from sc2jax.replay_sl.actions import ActionLabels, UnitPoints
 from sc2jax.replay_sl.units import NEVER, UnitTable, unit_index
@@ -64,7 +69,7 @@ class View:
                 raise ValueError(f"{name} must be an int in 1..256, got {value!r}")
 
 
-def _visible(points: np.ndarray, eyes: np.ndarray, xs: np.ndarray, ys: np.ndarray):
+def _visible(eyes: np.ndarray, xs: np.ndarray, ys: np.ndarray):
     """bool [len(ys), len(xs)]: cells whose centre lies within SIGHT of an eye."""
     if not len(eyes):
         return np.zeros((len(ys), len(xs)), bool)
@@ -120,6 +125,7 @@ def observe(table: UnitTable, points: np.ndarray, game_loop: int, player_id: int
     alive = table.alive(game_loop)
     owners = table.owners_at(game_loop)
     types = table.types_at(game_loop)
+    types = np.where(types < UNIT_TYPE_SCALE, types, 0)  # Types newer than PySC2 v4's: 0.
     mine = alive & (owners == player_id)
     minimap = Minimap((view.minimap_size,) * 2, view.map_size)
     screen = Camera((view.screen_size,) * 2)
@@ -127,8 +133,8 @@ def observe(table: UnitTable, points: np.ndarray, game_loop: int, player_id: int
     mxs, mys = minimap.pixel_centers()
     sxs, sys_ = screen.pixel_centers(center)
     eyes = points[mine]
-    seen_minimap = _visible(points, eyes, mxs, mys)
-    seen_screen = _visible(points, eyes, sxs, sys_)
+    seen_minimap = _visible(eyes, mxs, mys)
+    seen_screen = _visible(eyes, sxs, sys_)
     # Units drawn: the player's, neutral, and enemies in sight (or all of them).
     enemy = alive & (owners != player_id) & (owners != 0)
     if not view.full_information:
