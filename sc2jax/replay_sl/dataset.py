@@ -1,0 +1,233 @@
+"""Replays -> a dataset of PySC2-labelled agent steps, and a loader of minibatches.
+
+Each replay becomes one ArrayRecord shard (`<name>-<sha1[:8]>.array_record`), written to
+a temporary file and renamed into place, so that a shard is whole or absent; a
+conversion that is run again skips the shards it already has. A shard holds one record
+per agent step of each player: the observation (`observations.observe_step`), the
+label (a `DenseAction`, from `actions.label_players`) and the value target (1 for the
+player who won, 0 for a loss or a tie). Records are numpy `.npz` archives (compressed,
+no pickles).
+
+Replays are split by game, 90/10, by their SHA-1: a game whose hash is 0 modulo 10 is in
+"test", so the test set is fixed whatever the order or the number of replays.
+
+Why ArrayRecord and Grain: ArrayRecord files give random access to any record without
+reading the rest of the file, so Grain's loader can draw minibatches uniformly across
+every step of every game from shards on disk, with a fixed seed, without holding the
+dataset in memory; both are maintained by Google and used by its JAX codebases.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import hashlib
+import io
+import json
+import os
+import pathlib
+from collections.abc import Iterator
+
+import numpy as np
+
+from sc2jax.atomic import write_json_atomic
+from sc2jax.environment.interface.dense import to_dense
+from sc2jax.replay_sl.actions import label_players
+from sc2jax.replay_sl.archive import ReplayError, open_replay
+from sc2jax.replay_sl.metadata import read_metadata
+from sc2jax.replay_sl.observations import View, observe_step
+from sc2jax.replay_sl.units import unit_table
+
+SHARD_SUFFIX = ".array_record"
+SPLITS = ("train", "test")
+
+
+def split_of(sha1: str) -> str:
+    """"test" for one game in ten (by its SHA-1), else "train"."""
+    return "test" if int(sha1, 16) % 10 == 0 else "train"
+
+
+def encode(record: dict[str, np.ndarray]) -> bytes:
+    """One record (name -> array) as compressed `.npz` bytes."""
+    buffer = io.BytesIO()
+    np.savez_compressed(buffer, **record)
+    return buffer.getvalue()
+
+
+def decode(data: bytes) -> dict[str, np.ndarray]:
+    """The inverse of `encode` (no pickles)."""
+    with np.load(io.BytesIO(data), allow_pickle=False) as archive:
+        return {name: archive[name] for name in archive.files}
+
+
+@dataclasses.dataclass(frozen=True)
+class Settings:
+    """How replays are converted.
+
+    Attributes:
+      screen_size, minimap_size: the layers' resolution.
+      step_mul: game loops per agent step.
+      full_information: draw the enemy's units outside the player's sight too.
+      max_steps: convert at most this many agent steps per player (None: all).
+    """
+
+    screen_size: int = 64
+    minimap_size: int = 64
+    step_mul: int = 8
+    full_information: bool = False
+    max_steps: int | None = None
+
+    def __post_init__(self):
+        for name in ("screen_size", "minimap_size", "step_mul"):
+            value = getattr(self, name)
+            if isinstance(value, bool) or not isinstance(value, int) or value < 1:
+                raise ValueError(f"{name} must be a positive int, got {value!r}")
+        if self.max_steps is not None and (not isinstance(self.max_steps, int)
+                                           or self.max_steps < 1):
+            raise ValueError(f"max_steps must be a positive int or None, got "
+                             f"{self.max_steps!r}")
+
+
+def shard_name(path: str | os.PathLike, sha1: str) -> str:
+    return f"{pathlib.Path(path).stem}-{sha1[:8]}{SHARD_SUFFIX}"
+
+
+def replay_records(path: str | os.PathLike, settings: Settings) -> Iterator[dict]:
+    """Every agent step of every player of a replay, as records.
+
+    Raises:
+      ReplayError: for a replay that cannot be read.
+    """
+    replay = open_replay(path)
+    metadata = read_metadata(replay)
+    labels = label_players(replay, metadata, screen_size=settings.screen_size,
+                           minimap_size=settings.minimap_size, step_mul=settings.step_mul)
+    table = unit_table(replay)
+    description = replay.initdata["m_syncLobbyState"]["m_gameDescription"]
+    view = View((int(description["m_mapSizeX"]), int(description["m_mapSizeY"])),
+                settings.screen_size, settings.minimap_size, settings.full_information)
+    for player in metadata.players:
+        label = labels[player.player_id]
+        steps = len(label.steps) if settings.max_steps is None else min(
+            settings.max_steps, len(label.steps))
+        won = np.float32(player.result == "Win")
+        for t in range(steps):
+            obs = observe_step(table, label, t, player.player_id, view)
+            action = to_dense(label.steps[t].call)
+            yield {"feature_screen": obs["feature_screen"].astype(np.uint16),
+                   "feature_minimap": obs["feature_minimap"].astype(np.uint16),
+                   "player": obs["player"],
+                   "game_loop": np.int32(label.steps[t].game_loop),
+                   "value": won,
+                   **{f"action_{name}": value for name, value in action._asdict().items()}}
+
+
+def convert_replay(path: str | os.PathLike, output: str | os.PathLike,
+                   settings: Settings) -> dict:
+    """Converts one replay into its shard under `output/<split>/`, unless it is there.
+
+    Returns:
+      {"replay", "sha1", "split", "shard", "records", "skipped": bool}.
+
+    Raises:
+      ReplayError: for a replay that cannot be read (no shard is written).
+    """
+    from array_record.python.array_record_module import ArrayRecordWriter
+
+    data = pathlib.Path(path).read_bytes()
+    sha1 = hashlib.sha1(data).hexdigest()
+    split = split_of(sha1)
+    shard = pathlib.Path(output) / split / shard_name(path, sha1)
+    info = {"replay": str(path), "sha1": sha1, "split": split, "shard": str(shard)}
+    if shard.exists():
+        return {**info, "records": None, "skipped": True}
+    shard.parent.mkdir(parents=True, exist_ok=True)
+    temporary = shard.with_name(f".{shard.name}.{os.getpid()}.tmp")
+    writer = ArrayRecordWriter(str(temporary), "group_size:1")
+    count = 0
+    try:
+        for record in replay_records(path, settings):
+            writer.write(encode(record))
+            count += 1
+        writer.close()
+        os.replace(temporary, shard)
+    except BaseException:
+        writer.close()
+        temporary.unlink(missing_ok=True)
+        raise
+    return {**info, "records": count, "skipped": False}
+
+
+def _convert_one(args) -> dict:
+    path, output, settings = args
+    try:
+        return convert_replay(path, output, settings)
+    except ReplayError as error:
+        return {"replay": str(path), "error": error.reason}
+
+
+def convert_replays(paths: list[str], output: str | os.PathLike, settings: Settings, *,
+                    processes: int = 1, log=print) -> dict:
+    """Converts replays in parallel; a replay that cannot be read is skipped and counted.
+
+    Writes `output/conversion.json` (the settings, and each replay's shard or the reason
+    it has none) after every replay, atomically.
+
+    Returns:
+      The summary that `conversion.json` holds.
+    """
+    import multiprocessing
+
+    if isinstance(processes, bool) or not isinstance(processes, int) or processes < 1:
+        raise ValueError(f"processes must be a positive int, got {processes!r}")
+    output = pathlib.Path(output)
+    output.mkdir(parents=True, exist_ok=True)
+    summary = {"settings": dataclasses.asdict(settings), "replays": [], "failed": []}
+    jobs = [(p, str(output), settings) for p in paths]
+
+    def record(done: int, result: dict) -> None:
+        (summary["failed"] if "error" in result else summary["replays"]).append(result)
+        write_json_atomic(output / "conversion.json", summary)
+        state = ("already there" if result.get("skipped") else
+                 f"not converted: {result['error']}" if "error" in result else
+                 f"{result['records']} records")
+        log(f"{done}/{len(paths)} {pathlib.Path(result['replay']).name}: {state}")
+
+    if processes == 1:
+        for done, job in enumerate(jobs, 1):
+            record(done, _convert_one(job))
+        return summary
+    # Spawned, not forked: the parent may hold JAX's threads.
+    with multiprocessing.get_context("spawn").Pool(processes) as pool:
+        for done, result in enumerate(pool.imap_unordered(_convert_one, jobs), 1):
+            record(done, result)
+    return summary
+
+
+def shards(output: str | os.PathLike, split: str) -> list[str]:
+    """The shards of a split, sorted."""
+    if split not in SPLITS:
+        raise ValueError(f"unknown split {split!r}; allowed: {list(SPLITS)}")
+    return sorted(str(p) for p in (pathlib.Path(output) / split).glob(f"*{SHARD_SUFFIX}"))
+
+
+def loader(output: str | os.PathLike, split: str, *, batch_size: int = 64, seed: int = 0):
+    """A Grain dataset of minibatches drawn uniformly across every record of a split
+    (shuffled with `seed`), each a dict of arrays with a leading batch axis.
+
+    Raises:
+      ValueError: for an unknown split, a split without shards, or a bad batch size.
+    """
+    import grain
+
+    if isinstance(batch_size, bool) or not isinstance(batch_size, int) or batch_size < 1:
+        raise ValueError(f"batch_size must be a positive int, got {batch_size!r}")
+    paths = shards(output, split)
+    if not paths:
+        raise ValueError(f"no shards of split {split!r} under {str(output)!r}")
+    source = grain.sources.ArrayRecordDataSource(paths)
+    return grain.MapDataset.source(source).shuffle(seed=seed).map(decode).batch(batch_size)
+
+
+def read_summary(output: str | os.PathLike) -> dict:
+    """`conversion.json` of a dataset directory."""
+    return json.loads((pathlib.Path(output) / "conversion.json").read_text())

@@ -1,0 +1,79 @@
+"""Replays converted into ArrayRecord shards, resumed after an interruption, and loaded
+as minibatches."""
+
+import pathlib
+
+import numpy as np
+import pytest
+
+from sc2jax.environment.interface.functions import FUNCTIONS
+from sc2jax.replay_sl import dataset
+from sc2jax.replay_sl.dataset import Settings, convert_replays, decode, loader, shards, split_of
+
+REPLAYS = pathlib.Path(__file__).parents[3] / "shared" / "replays"
+if not REPLAYS.is_dir():
+    pytest.skip(f"the replays are not at {REPLAYS}", allow_module_level=True)
+KAIROS = REPLAYS / "asus_rog/0001_KairosJunction.SC2Replay"  # player 1 won
+SLEEPERS = REPLAYS / "nation_wars/0241_WorldofSleepers.SC2Replay"  # player 2 won
+QUICK = Settings(screen_size=32, minimap_size=32, max_steps=12)
+
+
+def test_conversion_writes_each_players_steps_and_skips_a_bad_replay(tmp_path):
+    corrupt = tmp_path / "corrupt.SC2Replay"
+    corrupt.write_bytes(b"not a replay" * 100)
+    summary = convert_replays([str(KAIROS), str(corrupt), str(SLEEPERS)], tmp_path / "out",
+                              QUICK, log=lambda _: None)
+    assert [r["records"] for r in summary["replays"]] == [24, 24]  # 2 players x 12 steps
+    assert [f["replay"] for f in summary["failed"]] == [str(corrupt)]
+    assert "not a readable replay archive" in summary["failed"][0]["error"]
+    assert dataset.read_summary(tmp_path / "out") == summary
+    # Both games are in the training split (their SHA-1s are not 0 modulo 10).
+    assert [r["split"] for r in summary["replays"]] == ["train", "train"]
+    assert len(shards(tmp_path / "out", "train")) == 2
+
+    batch = loader(tmp_path / "out", "train", batch_size=8, seed=0)[0]
+    assert batch["feature_screen"].shape == (8, 27, 32, 32)
+    assert batch["feature_minimap"].shape == (8, 11, 32, 32)
+    assert batch["action_screen"].shape == (8, 2) and batch["player"].shape == (8, 11)
+    assert set(np.unique(batch["value"]).tolist()) <= {0.0, 1.0}
+    # Every record of the Kairos shard: the first 12 steps of player 1 (who won), then of
+    # player 2; step 0 of each is a camera move (no action is earlier).
+    from array_record.python.array_record_module import ArrayRecordReader
+    reader = ArrayRecordReader(summary["replays"][0]["shard"])
+    records = [decode(r) for r in reader.read_all()]
+    assert len(records) == 24
+    assert [float(r["value"]) for r in records] == [1.0] * 12 + [0.0] * 12
+    assert [int(r["game_loop"]) for r in records[:3]] == [0, 8, 16]
+    assert int(records[0]["action_function"]) == FUNCTIONS.move_camera.id
+
+
+def test_a_conversion_resumes_and_an_interrupted_shard_is_not_kept(tmp_path, monkeypatch):
+    out = tmp_path / "out"
+    real = dataset.replay_records
+
+    def interrupted(path, settings):
+        for n, record in enumerate(real(path, settings)):
+            if n == 5:
+                raise KeyboardInterrupt
+            yield record
+
+    monkeypatch.setattr(dataset, "replay_records", interrupted)
+    with pytest.raises(KeyboardInterrupt):
+        convert_replays([str(KAIROS)], out, QUICK, log=lambda _: None)
+    assert shards(out, "train") == [] and not list((out / "train").iterdir())
+    monkeypatch.setattr(dataset, "replay_records", real)
+    first = convert_replays([str(KAIROS)], out, QUICK, log=lambda _: None)
+    again = convert_replays([str(KAIROS), str(SLEEPERS)], out, QUICK, log=lambda _: None)
+    assert first["replays"][0]["records"] == 24 and not first["replays"][0]["skipped"]
+    assert [r["skipped"] for r in again["replays"]] == [True, False]
+
+
+def test_the_split_and_bad_arguments():
+    assert split_of("0" * 40) == "test" and split_of("1" * 40) == "train"
+    assert split_of(format(10 * 12345, "040x")) == "test"
+    with pytest.raises(ValueError, match="unknown split 'dev'"):
+        shards("/nowhere", "dev")
+    with pytest.raises(ValueError, match="no shards of split 'test'"):
+        loader("/nowhere", "test")
+    with pytest.raises(ValueError, match="max_steps must be a positive int or None, got 0"):
+        Settings(max_steps=0)
