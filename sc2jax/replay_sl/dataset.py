@@ -163,6 +163,8 @@ def _convert_one(args) -> dict:
         return convert_replay(path, output, settings)
     except ReplayError as error:
         return {"replay": str(path), "error": error.reason}
+    except OSError as error:  # A file that cannot be read: skipped, as a bad replay is.
+        return {"replay": str(path), "error": f"cannot read the file ({error})"}
 
 
 def convert_replays(paths: list[str], output: str | os.PathLike, settings: Settings, *,

@@ -21,11 +21,13 @@ QUICK = Settings(screen_size=32, minimap_size=32, max_steps=12)
 def test_conversion_writes_each_players_steps_and_skips_a_bad_replay(tmp_path):
     corrupt = tmp_path / "corrupt.SC2Replay"
     corrupt.write_bytes(b"not a replay" * 100)
-    summary = convert_replays([str(KAIROS), str(corrupt), str(SLEEPERS)], tmp_path / "out",
-                              QUICK, log=lambda _: None)
+    missing = tmp_path / "missing.SC2Replay"
+    summary = convert_replays([str(KAIROS), str(corrupt), str(missing), str(SLEEPERS)],
+                              tmp_path / "out", QUICK, log=lambda _: None)
     assert [r["records"] for r in summary["replays"]] == [24, 24]  # 2 players x 12 steps
-    assert [f["replay"] for f in summary["failed"]] == [str(corrupt)]
+    assert [f["replay"] for f in summary["failed"]] == [str(corrupt), str(missing)]
     assert "not a readable replay archive" in summary["failed"][0]["error"]
+    assert "cannot read the file" in summary["failed"][1]["error"]
     assert dataset.read_summary(tmp_path / "out") == summary
     # Both games are in the training split (their SHA-1s are not 0 modulo 10).
     assert [r["split"] for r in summary["replays"]] == ["train", "train"]
