@@ -85,17 +85,20 @@ _NAMES = ("screen_features", "minimap_features", "functions", "bot")  # Lists in
 
 
 def _flag_default(field: str | None):
-    if field is None:
-        return None
-    value = getattr(_DEFAULTS, field)
-    if field in _NAMES:
-        return "all" if field != "bot" and value is None else None
+    """The flag's default: `TrainConfig`'s, with lists as one comma-separated string."""
+    value = None if field is None else getattr(_DEFAULTS, field)
+    if field in _NAMES and field != "bot":
+        return "all" if value is None else ",".join(value)
     return value
 
 
 def define(names, **defaults) -> dict[str, flags.FlagHolder]:
     """Defines the shared flags `names` (keys of the table), with `TrainConfig`'s defaults
     unless `defaults` names another; returns their holders by name."""
+    unknown = set(defaults) - set(names)
+    if unknown:
+        raise ValueError(f"defaults for flags not defined here: {sorted(unknown)}; "
+                         f"defined: {list(names)}")
     holders = {}
     for name in names:
         field, definer, help_text = _TABLE[name]
