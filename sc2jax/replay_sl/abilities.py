@@ -4,9 +4,10 @@ A command in a replay names its ability by the build's ability link and a comman
 The link's name comes from sc2reader's table for the build (the nearest lower build it
 has a table for). Blizzard's `stableid.json` maps (name, command index) to the stable
 ability id that PySC2's function table uses (a few names through `ALIASES`). From that
-id, the PySC2 function is found as PySC2's `reverse_action` finds it: the general
-ability where the specific one has one (`Attack_Attack_screen` -> `Attack_screen`), then
-the function of the command's kind (`_screen`, `_minimap`, `_quick` or `_autocast`).
+id, `functions.function_for_ability` finds the PySC2 function as PySC2's `reverse_action`
+does: the general ability where the specific one has one (`Attack_Attack_screen` ->
+`Attack_screen`), then the function of the command's kind (`_screen`, `_minimap`,
+`_quick` or `_autocast`).
 """
 
 from __future__ import annotations
@@ -19,7 +20,7 @@ import json
 import os
 import re
 
-from sc2jax.environment.interface.functions import FUNCTIONS, FunctionType
+from sc2jax.environment.interface.functions import FunctionType, function_for_ability
 
 _TABLE_NAME = re.compile(r"^(\d+|base)_abilities\.csv$")
 
@@ -91,20 +92,6 @@ def _stable_name(name: str) -> str:
     return {n.lower(): n for n in known}.get(name.lower(), name)
 
 
-@functools.cache
-def _functions_by_ability() -> dict[int, dict[FunctionType, int]]:
-    out: dict[int, dict[FunctionType, int]] = {}
-    for f in FUNCTIONS:
-        if f.ability_id:
-            out.setdefault(f.ability_id, {})[f.function_type] = f.id
-    return out
-
-
-@functools.cache
-def _general_of() -> dict[int, int]:
-    return {f.ability_id: f.general_id for f in FUNCTIONS if f.ability_id and f.general_id}
-
-
 @dataclasses.dataclass(frozen=True)
 class Resolved:
     """What a command's ability resolves to.
@@ -128,17 +115,4 @@ def resolve(base_build: int, link: int, cmd_index: int, kind: FunctionType) -> R
         return Resolved(f"link {link}/{cmd_index}", 0, None)
     ability_id, remap = stable_ability_ids().get((_stable_name(name), cmd_index), (0, 0))
     return Resolved(f"{name}/{cmd_index}", ability_id,
-                    function_of_ability(ability_id, kind) or function_of_ability(remap, kind))
-
-
-def function_of_ability(ability_id: int, kind: FunctionType) -> int | None:
-    """PySC2's function for a stable ability id issued as `kind`: the general ability's if
-    there is one, else the ability's own; None if PySC2 has no such function."""
-    if not ability_id:
-        return None
-    general = _general_of().get(ability_id, ability_id)
-    for candidate in (general, ability_id):
-        by_kind = _functions_by_ability().get(candidate, {})
-        if kind in by_kind:
-            return by_kind[kind]
-    return None
+                    function_for_ability(ability_id, kind) or function_for_ability(remap, kind))

@@ -10,7 +10,11 @@ import pytest
 
 from sc2jax.environment.interface.camera import Camera
 from sc2jax.environment.interface.features import MINIMAP_FEATURES, SCREEN_FEATURES
-from sc2jax.environment.interface.functions import FUNCTIONS, FunctionType
+from sc2jax.environment.interface.functions import (
+    FUNCTIONS,
+    FunctionType,
+    function_for_ability,
+)
 from sc2jax.replay_sl import (
     ReplayError,
     label_actions,
@@ -18,7 +22,7 @@ from sc2jax.replay_sl import (
     open_replay,
     read_metadata,
 )
-from sc2jax.replay_sl.abilities import function_of_ability, resolve
+from sc2jax.replay_sl.abilities import resolve
 from sc2jax.replay_sl.archive import protocol_build_for
 from sc2jax.replay_sl.metadata import clean_name
 from sc2jax.replay_sl.observations import View, observe_step
@@ -105,8 +109,8 @@ def test_abilities_map_to_pysc2_functions():
     assert resolve(75025, 155, 0, FunctionType.cmd_quick).function == FUNCTIONS.Train_SCV_quick.id
     assert resolve(76114, 129, 1, FunctionType.cmd_screen).function == (
         FUNCTIONS.Build_SupplyDepot_screen.id)
-    assert function_of_ability(23, FunctionType.cmd_screen) == FUNCTIONS.Attack_screen.id
-    assert function_of_ability(23, FunctionType.cmd_minimap) == FUNCTIONS.Attack_minimap.id
+    assert function_for_ability(23, FunctionType.cmd_screen) == FUNCTIONS.Attack_screen.id
+    assert function_for_ability(23, FunctionType.cmd_minimap) == FUNCTIONS.Attack_minimap.id
     assert resolve(76114, 10**6, 0, FunctionType.cmd_quick).function is None
 
 

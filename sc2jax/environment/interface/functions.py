@@ -160,6 +160,18 @@ FUNCTION_TYPE_IDS = np.array([f.function_type for f in FUNCTIONS], dtype=np.int3
 ABILITY_IDS = np.array([f.ability_id for f in FUNCTIONS], dtype=np.int32)
 GENERAL_IDS = np.array([f.general_id for f in FUNCTIONS], dtype=np.int32)
 
+_BY_ABILITY = {(f.ability_id, f.function_type): f.id for f in FUNCTIONS if f.ability_id}
+_GENERAL = {f.ability_id: f.general_id for f in FUNCTIONS if f.ability_id and f.general_id}
+
+
+def function_for_ability(ability_id: int, function_type: FunctionType) -> int | None:
+    """The function id a client sees for an ability used as `function_type`, as PySC2's
+    `reverse_action` finds it (with `hide_specific_actions`): the general ability's
+    function of that type where the ability is a specific one, else its own; None where
+    PySC2 has no such function."""
+    return _BY_ABILITY.get((_GENERAL.get(ability_id, ability_id), function_type))
+
+
 ALWAYS = ("no_op", "move_camera", "select_point", "select_rect", "select_control_group")
 """The functions PySC2 makes available on every step."""
 

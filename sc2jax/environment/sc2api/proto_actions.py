@@ -10,14 +10,19 @@ its general function, and an unknown ability to `no_op`.
 
 from __future__ import annotations
 
-from sc2jax.environment.interface.functions import FUNCTIONS, FunctionCall, FunctionType
+from sc2jax.environment.interface.functions import (
+    FUNCTIONS,
+    FunctionCall,
+    FunctionType,
+    function_for_ability,
+)
 from sc2jax.environment.sc2api.protos import sc2api
 
 _T = FunctionType
 
-_OWN = {(f.ability_id, f.function_type): f for f in FUNCTIONS if f.ability_id}
 VISIBLE_FUNCTION: dict[tuple[int, FunctionType], int] = {
-    key: (_OWN[(f.general_id, key[1])] if f.general_id else f).id for key, f in _OWN.items()}
+    (f.ability_id, f.function_type): function_for_ability(f.ability_id, f.function_type)
+    for f in FUNCTIONS if f.ability_id}
 """(ability id, function type) -> the function id a client sees with
 `hide_specific_actions`: the general function of the same type, if the ability is a
 specific one (every specific function has one), else its own."""
