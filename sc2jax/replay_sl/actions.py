@@ -33,6 +33,7 @@ from typing import NamedTuple
 
 import numpy as np
 
+from sc2jax.checks import check_positive_int
 from sc2jax.environment.interface.camera import Camera, Minimap
 from sc2jax.environment.interface.functions import FUNCTIONS, FunctionCall, FunctionType
 from sc2jax.replay_sl.abilities import resolve
@@ -351,8 +352,7 @@ def label_players(replay: Replay, metadata: ReplayMetadata, player_ids=None, *,
     """
     for name, value in (("screen_size", screen_size), ("minimap_size", minimap_size),
                         ("step_mul", step_mul)):
-        if isinstance(value, bool) or not isinstance(value, int) or value < 1:
-            raise ValueError(f"{name} must be an int >= 1, got {value!r}")
+        check_positive_int(name, value)
     players = [metadata.player(p) for p in (player_ids or [p.player_id for p in
                                                            metadata.players])]
     description = replay.initdata["m_syncLobbyState"]["m_gameDescription"]

@@ -30,6 +30,7 @@ from collections.abc import Iterator
 import numpy as np
 
 from sc2jax.atomic import write_json_atomic
+from sc2jax.checks import check_positive_int
 from sc2jax.environment.interface.dense import to_dense
 from sc2jax.replay_sl.actions import label_players
 from sc2jax.replay_sl.archive import ReplayError, open_replay
@@ -78,10 +79,9 @@ class Settings:
 
     def __post_init__(self):
         for name in ("screen_size", "minimap_size", "step_mul"):
-            value = getattr(self, name)
-            if isinstance(value, bool) or not isinstance(value, int) or value < 1:
-                raise ValueError(f"{name} must be a positive int, got {value!r}")
-        if self.max_steps is not None and (not isinstance(self.max_steps, int)
+            check_positive_int(name, getattr(self, name))
+        if self.max_steps is not None and (isinstance(self.max_steps, bool)
+                                           or not isinstance(self.max_steps, int)
                                            or self.max_steps < 1):
             raise ValueError(f"max_steps must be a positive int or None, got "
                              f"{self.max_steps!r}")
@@ -179,8 +179,7 @@ def convert_replays(paths: list[str], output: str | os.PathLike, settings: Setti
     """
     import multiprocessing
 
-    if isinstance(processes, bool) or not isinstance(processes, int) or processes < 1:
-        raise ValueError(f"processes must be a positive int, got {processes!r}")
+    check_positive_int("processes", processes)
     output = pathlib.Path(output)
     output.mkdir(parents=True, exist_ok=True)
     summary = {"settings": dataclasses.asdict(settings), "replays": [], "failed": []}
@@ -221,8 +220,7 @@ def loader(output: str | os.PathLike, split: str, *, batch_size: int = 64, seed:
     """
     import grain
 
-    if isinstance(batch_size, bool) or not isinstance(batch_size, int) or batch_size < 1:
-        raise ValueError(f"batch_size must be a positive int, got {batch_size!r}")
+    check_positive_int("batch_size", batch_size)
     paths = shards(output, split)
     if not paths:
         raise ValueError(f"no shards of split {split!r} under {str(output)!r}")
