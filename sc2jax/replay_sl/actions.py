@@ -124,6 +124,24 @@ def _point(data: dict, scale: float = 4096.0) -> tuple[float, float]:
     return data["x"] / scale, data["y"] / scale
 
 
+def _apply_remove(units: list[int], mask: dict) -> list[int]:
+    """The units a selection delta's remove mask keeps, in order."""
+    kind, value = next(iter(mask.items()))
+    if kind == "ZeroIndices":  # The indices kept.
+        return [units[i] for i in value if i < len(units)]
+    if kind == "OneIndices":  # The indices removed.
+        drop = set(value)
+        return [t for i, t in enumerate(units) if i not in drop]
+    if kind == "Mask":  # s2protocol's (length, bits); bit i taken as index i.
+        _, bits = value
+        return [t for i, t in enumerate(units) if not (bits >> i) & 1]
+    return list(units)  # "None": nothing removed.
+
+
+def _apply_delta(units: list[int], delta: dict) -> list[int]:
+    return _apply_remove(units, delta["m_removeMask"]) + list(delta["m_addUnitTags"])
+
+
 class _Labeller:
     """Turns one player's events, in game-loop order, into function calls."""
 
@@ -140,6 +158,8 @@ class _Labeller:
         self.loop = 0
         self.orders: list[Order] = []
         self.group_loop = -1
+        self.groups: dict[int, list[int]] = {}  # Control group index -> its units' tags.
+        self.before_recall: list[int] | None = None
 
     # Projections, of numpy [1, 2] points so that the transforms run on numpy, not jax.
     def screen_xy(self, world) -> list[int]:
@@ -173,20 +193,38 @@ class _Labeller:
 
     def _SControlGroupUpdateEvent(self, e):
         act = _GROUP_ACTS.get(e["m_controlGroupUpdate"])
+        index = e["m_controlGroupIndex"]
         self.group_loop = e["_gameloop"]
+        self.before_recall = None
         if act is None:
+            self.groups.pop(index, None)
             return None, "control group deleted"
-        return FUNCTIONS.select_control_group(act, e["m_controlGroupIndex"]), ""
+        if act.endswith("steal"):
+            for other, tags in self.groups.items():
+                self.groups[other] = [t for t in tags if t not in self.selection]
+        if act.startswith("set"):
+            self.groups[index] = list(self.selection)
+        elif act.startswith("append"):
+            group = self.groups.setdefault(index, [])
+            group += [t for t in self.selection if t not in group]
+        else:  # recall
+            self.before_recall = self.selection
+            self.selection = list(self.groups.get(index, ()))
+        return FUNCTIONS.select_control_group(act, index), ""
 
     def _SSelectionDeltaEvent(self, e):
-        if e["m_controlGroupId"] != ACTIVE_SELECTION:
+        group, delta = e["m_controlGroupId"], e["m_delta"]
+        if group != ACTIVE_SELECTION:  # The game's update of a group (units morphed, died).
+            self.groups[group] = _apply_delta(self.groups.get(group, []), delta)
             return None, "control group delta (follows a control group event)"
-        delta = e["m_delta"]
-        kept = self._apply_remove(delta["m_removeMask"])
-        removed = [t for t in self.selection if t not in kept]
+        echo = e["_gameloop"] == self.group_loop
+        # A recall's own delta, when the game writes one, is the game's account of it.
+        base = self.before_recall if echo and self.before_recall is not None else self.selection
+        kept = _apply_remove(base, delta["m_removeMask"])
+        removed = [t for t in base if t not in kept]
         added = list(delta["m_addUnitTags"])
         self.selection = kept + added
-        if e["_gameloop"] == self.group_loop:
+        if echo:
             return None, "selection of a control group (follows a control group event)"
         if not added:
             if not removed:
@@ -206,21 +244,6 @@ class _Labeller:
         if point is None:
             return None, "selected unit with an unknown position"
         return FUNCTIONS.select_point(act, self.screen_xy(point)), ""
-
-    def _apply_remove(self, mask: dict) -> list[int]:
-        kind, value = next(iter(mask.items()))
-        n = len(self.selection)
-        if kind == "None":
-            return list(self.selection)
-        if kind == "ZeroIndices":
-            return [self.selection[i] for i in value if i < n]
-        if kind == "OneIndices":
-            drop = set(value)
-            return [t for i, t in enumerate(self.selection) if i not in drop]
-        if kind == "Mask":  # s2protocol's (length, bits); bit i taken as index i.
-            _, bits = value
-            return [t for i, t in enumerate(self.selection) if not (bits >> i) & 1]
-        return list(self.selection)
 
     def _SCmdEvent(self, e):
         data, flags = e["m_data"], e["m_cmdFlags"]
