@@ -18,7 +18,6 @@ import importlib.util
 import os
 import re
 import sys
-from collections.abc import Iterator
 from types import ModuleType
 from typing import Any
 
@@ -93,6 +92,7 @@ class Replay:
     """
 
     def __init__(self, path: str | os.PathLike):
+        self._decoded: dict[str, list[dict]] = {}
         self.path = str(path)
         try:
             self._archive = mpyq.MPQArchive(self.path)
@@ -130,22 +130,24 @@ class Replay:
             raise ReplayError(self.path, f"{_FILES[stream]} does not decode "
                                          f"({type(error).__name__}: {error})") from None
 
-    def _events(self, stream: str, decoder: str) -> Iterator[dict]:
-        data = self._read(stream)
-        try:
-            yield from getattr(self._protocol, decoder)(data)
-        except ReplayError:
-            raise
-        except Exception as error:
-            raise ReplayError(self.path, f"{_FILES[stream]} does not decode to its end "
-                                         f"({type(error).__name__}: {error})") from None
+    def _events(self, stream: str, decoder: str) -> list[dict]:
+        if stream not in self._decoded:  # Decoded once: labels and units both read them.
+            data = self._read(stream)
+            try:
+                self._decoded[stream] = list(getattr(self._protocol, decoder)(data))
+            except Exception as error:
+                raise ReplayError(self.path, f"{_FILES[stream]} does not decode to its end "
+                                             f"({type(error).__name__}: {error})") from None
+        return self._decoded[stream]
 
-    def game_events(self) -> Iterator[dict]:
-        """Every user's game events in order (observers' too), as s2protocol decodes them."""
+    def game_events(self) -> list[dict]:
+        """Every user's game events in order (observers' too), as s2protocol decodes them
+        (decoded on the first call, then kept)."""
         return self._events("game", "decode_replay_game_events")
 
-    def tracker_events(self) -> Iterator[dict]:
-        """The tracker events (units born, died, positions, player stats...) in order."""
+    def tracker_events(self) -> list[dict]:
+        """The tracker events (units born, died, positions, player stats...) in order
+        (decoded on the first call, then kept)."""
         return self._events("tracker", "decode_replay_tracker_events")
 
     def _validate(self) -> None:
