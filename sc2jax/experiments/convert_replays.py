@@ -5,7 +5,8 @@ r"""Converts a folder of replays into a dataset of PySC2-labelled agent steps.
 
 Each replay becomes one ArrayRecord shard under OUTPUT/train or OUTPUT/test (one game in
 ten, by its SHA-1), holding every agent step of both players: feature layers, the player
-vector, the action as a `DenseAction` and the value target (`sc2jax.replay_sl.dataset`).
+vector, `available_actions`, the action as a `DenseAction` and the value target
+(`sc2jax.replay_sl.dataset`).
 Replays are converted in parallel over --processes; running the command again resumes,
 skipping the shards already written. A replay that cannot be read is skipped, and its
 reason is logged and kept in OUTPUT/conversion.json.
@@ -20,6 +21,7 @@ import time
 
 from absl import app, flags
 
+from sc2jax.replay_sl.availability import load_cards
 from sc2jax.replay_sl.dataset import Settings, convert_replays
 
 _REPLAYS = flags.DEFINE_string("replays", None, "A folder searched for .SC2Replay files.")
@@ -31,6 +33,9 @@ _FULL = flags.DEFINE_bool("full_information", False, "Draw the enemy's units out
                           "player's sight too (no fog of war), for ablations.")
 _PROCESSES = flags.DEFINE_integer("processes", os.cpu_count() or 1, "Replays converted at "
                                   "once.")
+_CARDS = flags.DEFINE_string("command_cards", None, "A JSON file of command-card uses "
+                             "(scripts/command_cards.py) deciding available_actions; "
+                             "default: the ones sc2jax ships.")
 _MAX_STEPS = flags.DEFINE_integer("max_steps", 0, "Convert at most this many agent steps "
                                   "per player (0: all), for a quick look.")
 
@@ -41,14 +46,19 @@ def main(argv) -> None:
         sys.exit("error: --replays and --output are required")
     try:
         settings = Settings(_SCREEN.value, _MINIMAP.value, _STEP_MUL.value, _FULL.value,
-                            _MAX_STEPS.value or None)
-    except ValueError as error:
+                            _MAX_STEPS.value or None, _CARDS.value)
+        if settings.command_cards is not None:
+            load_cards(settings.command_cards)
+    except (ValueError, OSError) as error:
         sys.exit(f"error: {error}")
     paths = sorted(str(p) for p in pathlib.Path(_REPLAYS.value).rglob("*.SC2Replay"))
     if not paths:
         sys.exit(f"error: no .SC2Replay files under {_REPLAYS.value!r}")
     start = time.time()
-    summary = convert_replays(paths, _OUTPUT.value, settings, processes=_PROCESSES.value)
+    try:
+        summary = convert_replays(paths, _OUTPUT.value, settings, processes=_PROCESSES.value)
+    except ValueError as error:
+        sys.exit(f"error: {error}")
     records = sum(r["records"] or 0 for r in summary["replays"])
     print(f"\n{len(summary['replays'])} replays converted or already there, "
           f"{len(summary['failed'])} not converted; {records} records written in "

@@ -105,6 +105,25 @@ def _masked_mean(x: jax.Array, mask: jax.Array) -> jax.Array:
     return jnp.sum(x * mask) / jnp.maximum(jnp.sum(mask), 1.0)
 
 
+def supervised_ranks(output: NetworkOutput, target: DenseAction, available_actions: jax.Array
+                     ) -> dict[str, jax.Array]:
+    """Each example's ranks of its target (0 = the network's first choice).
+
+    Returns:
+      {"function": int32 [B] (among the available functions), "screen", "minimap":
+      int32 [B] (the target point among the argument's points), "uses_screen",
+      "uses_minimap": bool [B] (the target function takes that argument)}.
+    """
+    masked = policy.mask_function_logits(output.function_logits, available_actions)
+    used = policy.used_arguments(target.function)
+    ranks = {"function": _rank(masked, target.function.astype(jnp.int32))}
+    for name, i in (("screen", SCREEN), ("minimap", MINIMAP)):
+        ranks[name] = _point_rank(output.argument_logits[i],
+                                  target.arguments[i].astype(jnp.int32))
+        ranks[f"uses_{name}"] = used[:, i].astype(bool)
+    return ranks
+
+
 def supervised_metrics(output: NetworkOutput, target: DenseAction, available_actions: jax.Array,
                        outcome: jax.Array) -> dict[str, jax.Array]:
     """Table 2's top-1/top-5 accuracies and the value accuracy.
@@ -114,15 +133,12 @@ def supervised_metrics(output: NetworkOutput, target: DenseAction, available_act
       "minimap_top5", "value_accuracy"}; screen and minimap accuracies are over the
       examples whose target function takes that argument (0 if none does).
     """
-    masked = policy.mask_function_logits(output.function_logits, available_actions)
-    function_rank = _rank(masked, target.function.astype(jnp.int32))
-    used = policy.used_arguments(target.function)
-    metrics = {"action_top1": jnp.mean(function_rank < 1),
-               "action_top5": jnp.mean(function_rank < 5)}
-    for name, i in (("screen", SCREEN), ("minimap", MINIMAP)):
-        rank = _point_rank(output.argument_logits[i], target.arguments[i].astype(jnp.int32))
-        metrics[f"{name}_top1"] = _masked_mean(rank < 1, used[:, i])
-        metrics[f"{name}_top5"] = _masked_mean(rank < 5, used[:, i])
+    ranks = supervised_ranks(output, target, available_actions)
+    metrics = {"action_top1": jnp.mean(ranks["function"] < 1),
+               "action_top5": jnp.mean(ranks["function"] < 5)}
+    for name in ("screen", "minimap"):
+        metrics[f"{name}_top1"] = _masked_mean(ranks[name] < 1, ranks[f"uses_{name}"])
+        metrics[f"{name}_top5"] = _masked_mean(ranks[name] < 5, ranks[f"uses_{name}"])
     metrics["value_accuracy"] = jnp.mean((output.value > 0) == (outcome > 0.5))
     return metrics
 

@@ -3,10 +3,11 @@
 Each replay becomes one ArrayRecord shard (`<name>-<sha1[:8]>.array_record`), written to
 a temporary file and renamed into place, so that a shard is whole or absent; a
 conversion that is run again skips the shards it already has. A shard holds one record
-per agent step of each player: the observation (`observations.observe_step`), the
-label (a `DenseAction`, from `actions.label_players`) and the value target (1 for the
-player who won, 0 for a loss or a tie). Records are numpy `.npz` archives (compressed,
-no pickles).
+per agent step of each player: the observation (`observations.observe_steps`, with
+`available_actions`), the label (a `DenseAction`, from `actions.label_players`) and the
+value target (1 for the player who won, 0 for a loss or a tie). A record is its fields'
+raw bytes in a fixed order (`schema`, from the settings in `conversion.json`), which
+ArrayRecord compresses with zstd; reading one is a view over its bytes, with no parsing.
 
 Replays are split by game, 90/10, by their SHA-1: a game whose hash is 0 modulo 10 is in
 "test", so the test set is fixed whatever the order or the number of replays.
@@ -20,8 +21,8 @@ dataset in memory; both are maintained by Google and used by its JAX codebases.
 from __future__ import annotations
 
 import dataclasses
+import functools
 import hashlib
-import io
 import json
 import os
 import pathlib
@@ -31,33 +32,27 @@ import numpy as np
 
 from sc2jax.atomic import write_json_atomic
 from sc2jax.checks import check_positive_int
-from sc2jax.environment.interface.dense import to_dense
+from sc2jax.environment.interface.dense import DenseAction, to_dense
+from sc2jax.environment.interface.dense import zeros as dense_zeros
+from sc2jax.environment.interface.features import MINIMAP_FEATURES, SCREEN_FEATURES
+from sc2jax.environment.interface.functions import NUM_FUNCTIONS
+from sc2jax.environment.interface.observation_tables import Player
 from sc2jax.replay_sl.actions import label_players
 from sc2jax.replay_sl.archive import ReplayError, open_replay
+from sc2jax.replay_sl.availability import load_cards
 from sc2jax.replay_sl.metadata import read_metadata
-from sc2jax.replay_sl.observations import View, observe_step
+from sc2jax.replay_sl.observations import View, observe_steps
 from sc2jax.replay_sl.units import unit_table
 
 SHARD_SUFFIX = ".array_record"
+WRITER_OPTIONS = "group_size:1,zstd:3"
+"""ArrayRecord's options: one record per chunk (any record read alone), zstd level 3."""
 SPLITS = ("train", "test")
 
 
 def split_of(sha1: str) -> str:
     """"test" for one game in ten (by its SHA-1), else "train"."""
     return "test" if int(sha1, 16) % 10 == 0 else "train"
-
-
-def encode(record: dict[str, np.ndarray]) -> bytes:
-    """One record (name -> array) as compressed `.npz` bytes."""
-    buffer = io.BytesIO()
-    np.savez_compressed(buffer, **record)
-    return buffer.getvalue()
-
-
-def decode(data: bytes) -> dict[str, np.ndarray]:
-    """The inverse of `encode` (no pickles)."""
-    with np.load(io.BytesIO(data), allow_pickle=False) as archive:
-        return {name: archive[name] for name in archive.files}
 
 
 @dataclasses.dataclass(frozen=True)
@@ -69,6 +64,8 @@ class Settings:
       step_mul: game loops per agent step.
       full_information: draw the enemy's units outside the player's sight too.
       max_steps: convert at most this many agent steps per player (None: all).
+      command_cards: a JSON file of the command cards that decide `available_actions`
+        (`availability.load_cards`; None: the ones the package ships).
     """
 
     screen_size: int = 64
@@ -76,6 +73,7 @@ class Settings:
     step_mul: int = 8
     full_information: bool = False
     max_steps: int | None = None
+    command_cards: str | None = None
 
     def __post_init__(self):
         for name in ("screen_size", "minimap_size", "step_mul"):
@@ -87,12 +85,62 @@ class Settings:
                              f"{self.max_steps!r}")
 
 
+def schema(settings: Settings) -> dict[str, tuple[np.dtype, tuple[int, ...]]]:
+    """Each field of a record: name -> (dtype, shape)."""
+    screen, minimap = settings.screen_size, settings.minimap_size
+    fields = {"feature_screen": (np.uint16, (len(SCREEN_FEATURES), screen, screen)),
+              "feature_minimap": (np.uint16, (len(MINIMAP_FEATURES), minimap, minimap)),
+              "player": (np.int32, (len(Player),)),
+              "available_actions": (np.bool_, (NUM_FUNCTIONS,)),
+              "game_loop": (np.int32, ()), "value": (np.float32, ())}
+    for name, example in zip(DenseAction._fields, dense_zeros(())):
+        fields[f"action_{name}"] = (np.int32, np.shape(example))
+    return {name: (np.dtype(dtype), shape) for name, (dtype, shape) in fields.items()}
+
+
+def encode(record: dict[str, np.ndarray], fields: dict) -> bytes:
+    """One record (name -> array, as `schema` gives them) as bytes: the fields' raw
+    bytes in the schema's order (ArrayRecord compresses them).
+
+    Raises:
+      ValueError: for a missing field or a field of another shape.
+    """
+    parts = []
+    for name, (dtype, shape) in fields.items():
+        if name not in record or np.shape(record[name]) != shape:
+            raise ValueError(f"record field {name!r} must have shape {shape}, got "
+                             f"{np.shape(record[name]) if name in record else 'nothing'}")
+        parts.append(np.ascontiguousarray(record[name], dtype).tobytes())
+    return b"".join(parts)
+
+
+def decode(data: bytes, fields: dict) -> dict[str, np.ndarray]:
+    """The inverse of `encode` (read-only arrays over `data`).
+
+    Raises:
+      ValueError: for bytes of another length than the schema's.
+    """
+    sizes = [int(np.prod(shape)) * dtype.itemsize for dtype, shape in fields.values()]
+    if sum(sizes) != len(data):
+        raise ValueError(f"a record of {len(data)} bytes does not match the dataset's "
+                         f"schema ({sum(sizes)} bytes)")
+    out, offset = {}, 0
+    for (name, (dtype, shape)), size in zip(fields.items(), sizes):
+        out[name] = np.frombuffer(data, dtype, size // dtype.itemsize, offset).reshape(shape)
+        offset += size
+    return out
+
+
 def shard_name(path: str | os.PathLike, sha1: str) -> str:
     return f"{pathlib.Path(path).stem}-{sha1[:8]}{SHARD_SUFFIX}"
 
 
+CHUNK = 64
+"""Agent steps rendered together (`observations.observe_steps`)."""
+
+
 def replay_records(path: str | os.PathLike, settings: Settings) -> Iterator[dict]:
-    """Every agent step of every player of a replay, as records.
+    """Every agent step of every player of a replay, as records (`schema`).
 
     Raises:
       ReplayError: for a replay that cannot be read.
@@ -102,6 +150,7 @@ def replay_records(path: str | os.PathLike, settings: Settings) -> Iterator[dict
     labels = label_players(replay, metadata, screen_size=settings.screen_size,
                            minimap_size=settings.minimap_size, step_mul=settings.step_mul)
     table = unit_table(replay)
+    cards = load_cards(settings.command_cards)
     description = replay.initdata["m_syncLobbyState"]["m_gameDescription"]
     view = View((int(description["m_mapSizeX"]), int(description["m_mapSizeY"])),
                 settings.screen_size, settings.minimap_size, settings.full_information)
@@ -110,15 +159,15 @@ def replay_records(path: str | os.PathLike, settings: Settings) -> Iterator[dict
         steps = len(label.steps) if settings.max_steps is None else min(
             settings.max_steps, len(label.steps))
         won = np.float32(player.result == "Win")
-        for t in range(steps):
-            obs = observe_step(table, label, t, player.player_id, view)
-            action = to_dense(label.steps[t].call)
-            yield {"feature_screen": obs["feature_screen"].astype(np.uint16),
-                   "feature_minimap": obs["feature_minimap"].astype(np.uint16),
-                   "player": obs["player"],
-                   "game_loop": np.int32(label.steps[t].game_loop),
-                   "value": won,
-                   **{f"action_{name}": value for name, value in action._asdict().items()}}
+        for start in range(0, steps, CHUNK):
+            chunk = range(start, min(start + CHUNK, steps))
+            obs = observe_steps(table, label, player.player_id, view, chunk, cards)
+            action = to_dense([label.steps[t].call for t in chunk])
+            for n, t in enumerate(chunk):
+                yield {**{name: value[n] for name, value in obs.items()},
+                       "game_loop": np.int32(label.steps[t].game_loop), "value": won,
+                       **{f"action_{name}": value[n]
+                          for name, value in action._asdict().items()}}
 
 
 def convert_replay(path: str | os.PathLike, output: str | os.PathLike,
@@ -142,11 +191,11 @@ def convert_replay(path: str | os.PathLike, output: str | os.PathLike,
         return {**info, "records": None, "skipped": True}
     shard.parent.mkdir(parents=True, exist_ok=True)
     temporary = shard.with_name(f".{shard.name}.{os.getpid()}.tmp")
-    writer = ArrayRecordWriter(str(temporary), "group_size:1")
-    count = 0
+    writer = ArrayRecordWriter(str(temporary), WRITER_OPTIONS)
+    fields, count = schema(settings), 0
     try:
         for record in replay_records(path, settings):
-            writer.write(encode(record))
+            writer.write(encode(record, fields))
             count += 1
         writer.close()
         os.replace(temporary, shard)
@@ -181,6 +230,11 @@ def convert_replays(paths: list[str], output: str | os.PathLike, settings: Setti
 
     check_positive_int("processes", processes)
     output = pathlib.Path(output)
+    if (output / "conversion.json").exists():
+        before = read_summary(output)["settings"]
+        if before != dataclasses.asdict(settings):
+            raise ValueError(f"{str(output)!r} holds a dataset converted with other settings "
+                             f"({before}); convert into another folder, or with those")
     output.mkdir(parents=True, exist_ok=True)
     summary = {"settings": dataclasses.asdict(settings), "replays": [], "failed": []}
     jobs = [(p, str(output), settings) for p in paths]
@@ -211,9 +265,11 @@ def shards(output: str | os.PathLike, split: str) -> list[str]:
     return sorted(str(p) for p in (pathlib.Path(output) / split).glob(f"*{SHARD_SUFFIX}"))
 
 
-def loader(output: str | os.PathLike, split: str, *, batch_size: int = 64, seed: int = 0):
+def loader(output: str | os.PathLike, split: str, *, batch_size: int = 64, seed: int = 0,
+           drop_remainder: bool = False):
     """A Grain dataset of minibatches drawn uniformly across every record of a split
-    (shuffled with `seed`), each a dict of arrays with a leading batch axis.
+    (shuffled with `seed`), each a dict of arrays with a leading batch axis (the last
+    one smaller, unless `drop_remainder`).
 
     Raises:
       ValueError: for an unknown split, a split without shards, or a bad batch size.
@@ -224,8 +280,11 @@ def loader(output: str | os.PathLike, split: str, *, batch_size: int = 64, seed:
     paths = shards(output, split)
     if not paths:
         raise ValueError(f"no shards of split {split!r} under {str(output)!r}")
+    fields = schema(Settings(**read_summary(output)["settings"]))
     source = grain.sources.ArrayRecordDataSource(paths)
-    return grain.MapDataset.source(source).shuffle(seed=seed).map(decode).batch(batch_size)
+    return (grain.MapDataset.source(source).shuffle(seed=seed)
+            .map(functools.partial(decode, fields=fields))
+            .batch(batch_size, drop_remainder=drop_remainder))
 
 
 def read_summary(output: str | os.PathLike) -> dict:

@@ -4,8 +4,9 @@ trained on minibatches of `dataset.loader`, with `losses.make_supervised_loss`.
     state = init(network, fmt, key, learning_rate=1e-3)
     state, metrics = update(network, state, batch)      # jitted, batch from `to_batch`
 
-The records hold no availability mask yet (docs/replays.md): every function counts as
-available, so the policy's function head is trained and measured over all 573.
+The function head is trained and measured under the records' `available_actions`
+(`availability`), with the label's function added: the game accepted the player's
+action, so it was available, whatever the approximate mask says.
 """
 
 from __future__ import annotations
@@ -18,7 +19,6 @@ import numpy as np
 import optax
 
 from sc2jax.environment.interface.dense import DenseAction
-from sc2jax.environment.interface.functions import NUM_FUNCTIONS
 from sc2jax.losses.supervised import SupervisedBatch, make_supervised_loss
 
 
@@ -31,13 +31,14 @@ class LearnerState(NamedTuple):
 def to_batch(records: dict[str, np.ndarray]) -> SupervisedBatch:
     """A loader minibatch (dict of arrays with a leading batch axis) as a `SupervisedBatch`
     (the observation as the networks read it)."""
-    size = records["value"].shape[0]
+    action = DenseAction(*(records[f"action_{name}"].astype(np.int32)
+                           for name in DenseAction._fields))
+    available = records["available_actions"].astype(bool)
+    available[np.arange(len(available)), action.function] = True
     observation = {"feature_screen": records["feature_screen"].astype(np.int32),
                    "feature_minimap": records["feature_minimap"].astype(np.int32),
                    "player": records["player"].astype(np.int32),
-                   "available_actions": np.ones((size, NUM_FUNCTIONS), bool)}
-    action = DenseAction(*(records[f"action_{name}"].astype(np.int32)
-                           for name in DenseAction._fields))
+                   "available_actions": available}
     return SupervisedBatch(observation, action, records["value"].astype(np.float32))
 
 

@@ -1,24 +1,27 @@
 """PySC2 feature layers from a replay, without the game: the unit table seen through the
 player's camera, with fog of war.
 
-`observe` draws, at one game loop and for one player, the layers that the replay can
-approximate, in PySC2's layer order and scales, and leaves the others zero:
+`observe_steps` draws a player's observations at a range of agent steps at once (numpy
+over [steps, units] arrays), in PySC2's layer order and scales, and leaves the layers it
+cannot approximate zero:
 
 - minimap: `visibility_map`, `camera`, `player_id`, `player_relative`, `selected`,
   `unit_type`;
 - screen: `visibility_map`, `player_id`, `player_relative`, `unit_type`, `selected`,
   `unit_density`, `unit_density_aa` (the count, capped as the game does),
   `build_progress` (structures under construction);
-- `player`: `player_id`, minerals, vespene, food used and cap, and workers from the
-  latest PlayerStats event.
+- `player` (`player_vectors`): from PlayerStats and the unit table;
+- `available_actions` (`availability`).
 
 Approximations (listed with their effects in docs/replays.md): a unit's point is an
 estimate between the tracker's reports (`positions`); every unit is a disc of
-`UNIT_RADIUS` and sees `SIGHT` world units; a pixel is visible (2) when a unit of the
-player sees it, else hidden (0: explored cells are not remembered); enemy units are
-drawn only where visible (all of them with `full_information`); neutral units (minerals,
-geysers, rocks) always. Terrain (height, pathable, buildable), creep, power and unit
-vitals are not in replays and stay zero.
+`UNIT_RADIUS` and sees `SIGHT` world units; sight is computed on the map's 1 x 1 world
+cells: a cell is visible when its centre lies within SIGHT of the centre of a cell that
+holds one of the player's units, and a pixel is visible (2) when its centre's cell is,
+else hidden (0: explored cells are not remembered); enemy units are drawn only on
+visible cells (all of them with `full_information`); neutral units (minerals, geysers,
+rocks) always. Terrain (height, pathable, buildable), creep, power and unit vitals are
+not in replays and stay zero.
 """
 
 from __future__ import annotations
@@ -36,7 +39,8 @@ from sc2jax.environment.interface.features import (
 )
 from sc2jax.environment.interface.observation_tables import Player
 from sc2jax.replay_sl.actions import ActionLabels, UnitPoints
-from sc2jax.replay_sl.units import NEVER, UnitTable, unit_index
+from sc2jax.replay_sl.availability import CommandCards, available_actions, load_cards
+from sc2jax.replay_sl.units import NEVER, UnitsAt, UnitTable, stable_unit_ids, unit_index
 
 UNIT_RADIUS = 0.5
 """World units: every unit's radius (replays do not record unit footprints)."""
@@ -69,24 +73,59 @@ class View:
                 raise ValueError(f"{name} must be an int in 1..256, got {value!r}")
 
 
-def _visible(eyes: np.ndarray, xs: np.ndarray, ys: np.ndarray):
-    """bool [len(ys), len(xs)]: cells whose centre lies within SIGHT of an eye."""
-    if not len(eyes):
-        return np.zeros((len(ys), len(xs)), bool)
-    dx = xs[None, :, None] - eyes[None, None, :, 0]
-    dy = ys[:, None, None] - eyes[None, None, :, 1]
-    return ((dx * dx + dy * dy) <= SIGHT * SIGHT).any(-1)
+def _sight(points: np.ndarray, eyes: np.ndarray, map_size: tuple[int, int]) -> np.ndarray:
+    """bool [T, H, W]: the world cells (1 x 1 units, indexed [y, x]) whose centres lie
+    within SIGHT of the centre of a cell holding an eye.
+
+    Each eye's disc is drawn row by row: +1 where its span on a row starts, -1 after it
+    ends, summed along the rows.
+
+    Args:
+      points: float32 [T, U, 2] the units' points.
+      eyes: bool [T, U]: the units that see.
+    """
+    width, height = map_size
+    t, u = np.nonzero(eyes)
+    cx = np.clip(np.floor(points[t, u, 0]).astype(np.int64), 0, width - 1)
+    cy = np.clip(np.floor(points[t, u, 1]).astype(np.int64), 0, height - 1)
+    cells = np.unique((t * height + cy) * width + cx)  # Units on one cell see alike.
+    t, rest = np.divmod(cells, height * width)
+    cy, cx = np.divmod(rest, width)
+    y = cy[:, None] + _SIGHT_ROWS[None, :]  # [E, R]
+    keep = (y >= 0) & (y < height)
+    row = (t[:, None] * height + y) * (width + 1)
+    start = row + np.maximum(cx[:, None] - _SIGHT_HALF_SPAN[None, :], 0)
+    stop = row + np.minimum(cx[:, None] + _SIGHT_HALF_SPAN[None, :], width - 1) + 1
+    size = len(eyes) * height * (width + 1)
+    edges = (np.bincount(start[keep], minlength=size)
+             - np.bincount(stop[keep], minlength=size)).reshape(len(eyes), height, width + 1)
+    return np.cumsum(edges, axis=2)[:, :, :width] > 0
 
 
-def _paint(layers: dict[str, np.ndarray], pixels: np.ndarray, radius: float,
-           values: dict[str, np.ndarray], size: int) -> None:
-    """Draws discs of `radius` pixels around `pixels` [N, 2] (x, y) into `layers`, later
-    units over earlier ones; the `DENSITY` layers among `layers` count the units covering
-    each pixel. A disc covers the pixels whose centres lie within it, and always the pixel
-    holding its centre."""
-    if not len(pixels):
-        return
+_SIGHT_ROWS = np.arange(-int(SIGHT), int(SIGHT) + 1)
+_SIGHT_HALF_SPAN = np.floor(np.sqrt(SIGHT ** 2 - _SIGHT_ROWS ** 2)).astype(np.int64)
+"""A disc of SIGHT cells: on row dy it spans dx in [-half, half]."""
+
+
+def _look_up(grid: np.ndarray, t: np.ndarray, xs: np.ndarray, ys: np.ndarray) -> np.ndarray:
+    """grid[t, floor(ys), floor(xs)] for world points (False outside the map)."""
+    height, width = grid.shape[1:]
+    x, y = np.floor(xs).astype(np.int64), np.floor(ys).astype(np.int64)
+    inside = (x >= 0) & (x < width) & (y >= 0) & (y < height)
+    return grid[t, np.clip(y, 0, height - 1), np.clip(x, 0, width - 1)] & inside
+
+
+def _paint(layers: dict[str, np.ndarray], t: np.ndarray, pixels: np.ndarray, radius: float,
+           values: dict[str, np.ndarray]) -> None:
+    """Draws discs of `radius` pixels around `pixels` [N, 2] (x, y) of steps `t` [N] into
+    `layers` ([T, S, S] each), later units over earlier ones; the `DENSITY` layers among
+    `layers` count the units covering each pixel. A disc covers the pixels whose centres
+    lie within it, and always the pixel holding its centre."""
+    steps, size = next(iter(layers.values())).shape[:2]
     r = max(radius, 0.5)
+    near = np.all((pixels > -r - 1) & (pixels < size + r + 1), axis=1)  # Off-layer: skip.
+    t, pixels = t[near], pixels[near]
+    values = {name: v[near] for name, v in values.items()}
     span = np.arange(-int(np.ceil(r)), int(np.ceil(r)) + 1)
     ox, oy = (a.ravel() for a in np.meshgrid(span, span))
     centre = np.floor(pixels).astype(np.int64)
@@ -96,132 +135,189 @@ def _paint(layers: dict[str, np.ndarray], pixels: np.ndarray, radius: float,
     keep = (inside | ((ox == 0) & (oy == 0))[None, :]) & (x >= 0) & (x < size) & (y >= 0) & (
         y < size)
     unit = np.broadcast_to(np.arange(len(pixels))[:, None], keep.shape)[keep]
-    flat = (y * size + x)[keep]  # In unit order: numpy assigns repeated indices in order.
-    for name, v in values.items():
+    flat = ((t[:, None] * size + y) * size + x)[keep]  # In unit order: numpy assigns
+    for name, v in values.items():                    # repeated indices in order.
         layers[name].reshape(-1)[flat] = v[unit]
-    count = np.bincount(flat, minlength=size * size).reshape(size, size).astype(np.int32)
+    count = np.bincount(flat, minlength=steps * size * size).reshape(steps, size, size)
     for name, (multiplier, cap) in DENSITY.items():
         if name in layers:
-            layers[name] += np.minimum(count * multiplier, cap)
+            layers[name] += np.minimum(count * multiplier, cap).astype(layers[name].dtype)
 
 
-def observe(table: UnitTable, points: np.ndarray, game_loop: int, player_id: int,
-            camera: tuple[float, float], selected: np.ndarray, view: View) -> dict:
-    """The player's observation at `game_loop`.
+def render(table: UnitTable, at: UnitsAt, loops: np.ndarray, points: np.ndarray,
+           cameras: np.ndarray, selected: np.ndarray, player_id: int, view: View) -> dict:
+    """The player's feature layers at T game loops.
 
     Args:
       table: the replay's units (`unit_table`).
-      points: float32 [U, 2], each unit's estimated world point at `game_loop`.
-      game_loop: when.
+      at: the units' state at `loops` (`table.at(loops)`), [T, U].
+      loops: int [T] game loops.
+      points: float32 [T, U, 2], each unit's estimated world point.
+      cameras: float32 [T, 2], the player's camera centre (world x, y).
+      selected: bool [T, U], the player's selected units.
       player_id: whose view (1-based).
-      camera: the player's camera centre (world x, y).
-      selected: bool [U], the player's selected units.
       view: the map's size, the resolutions and the fog setting.
 
     Returns:
-      {"feature_screen": int32 [27, S, S], "feature_minimap": int32 [11, M, M],
-       "player": int32 [11]}.
+      {"feature_screen": uint16 [T, 27, S, S], "feature_minimap": uint16 [T, 11, M, M]}.
     """
-    alive = table.alive(game_loop)
-    owners = table.owners_at(game_loop)
-    types = table.types_at(game_loop)
-    types = np.where(types < UNIT_TYPE_SCALE, types, 0)  # Types newer than PySC2 v4's: 0.
+    steps = len(loops)
+    alive, owners = at.alive, at.owner
+    types = np.where(at.unit_type < UNIT_TYPE_SCALE, at.unit_type, 0)  # Newer than v4: 0.
     mine = alive & (owners == player_id)
-    minimap = Minimap((view.minimap_size,) * 2, view.map_size)
-    screen = Camera((view.screen_size,) * 2)
-    center = np.asarray(camera, np.float32)
-    mxs, mys = minimap.pixel_centers()
-    sxs, sys_ = screen.pixel_centers(center)
-    eyes = points[mine]
-    seen_minimap = _visible(eyes, mxs, mys)
-    seen_screen = _visible(eyes, sxs, sys_)
+    sight = _sight(points, mine, view.map_size)
     # Units drawn: the player's, neutral, and enemies in sight (or all of them).
     enemy = alive & (owners != player_id) & (owners != 0)
     if not view.full_information:
-        seen = np.zeros_like(enemy)
-        candidates = np.flatnonzero(enemy)
-        if len(eyes) and len(candidates):
-            dx = points[candidates, 0:1] - eyes[None, :, 0]
-            dy = points[candidates, 1:2] - eyes[None, :, 1]
-            seen[candidates] = (dx * dx + dy * dy <= SIGHT * SIGHT).any(-1)
-        enemy &= seen
-    shown = mine | (alive & (owners == 0)) | enemy
-    order = np.flatnonzero(shown)
-    relative = np.where(owners == player_id, _SELF, np.where(owners == 0, _NEUTRAL, _ENEMY))
-    player_ids = np.where(owners == 0, NEUTRAL, owners)
-    values = {"player_id": player_ids[order], "player_relative": relative[order],
-              "unit_type": types[order], "selected": selected[order].astype(np.int32)}
+        t, u = np.nonzero(enemy)
+        enemy[t, u] = _look_up(sight, t, points[t, u, 0], points[t, u, 1])
+    t, u = np.nonzero(mine | (alive & (owners == 0)) | enemy)  # By step, then unit.
+    owner = owners[t, u]
+    values = {"player_id": np.where(owner == 0, NEUTRAL, owner),
+              "player_relative": np.where(owner == player_id, _SELF,
+                                          np.where(owner == 0, _NEUTRAL, _ENEMY)),
+              "unit_type": types[t, u], "selected": selected[t, u]}
 
-    mini = {name: np.zeros((view.minimap_size,) * 2, np.int32) for name in values}
-    _paint(mini, minimap.world_to_pixel(points[order]),
-           UNIT_RADIUS * minimap.pixels_per_unit, values, view.minimap_size)
-    feature_minimap = np.zeros((len(MINIMAP_FEATURES), *(view.minimap_size,) * 2), np.int32)
+    minimap = Minimap((view.minimap_size,) * 2, view.map_size)
+    m = view.minimap_size
+    mini = {name: np.zeros((steps, m, m), np.uint16) for name in values}
+    _paint(mini, t, minimap.world_to_pixel(points[t, u]),
+           UNIT_RADIUS * minimap.pixels_per_unit, values)
+    feature_minimap = np.zeros((steps, len(MINIMAP_FEATURES), m, m), np.uint16)
     for name, layer in mini.items():
-        feature_minimap[getattr(MINIMAP_FEATURES, name).index] = layer
-    feature_minimap[MINIMAP_FEATURES.visibility_map.index] = seen_minimap * 2
+        feature_minimap[:, getattr(MINIMAP_FEATURES, name).index] = layer
+    mxs, mys = minimap.pixel_centers()
+    every = np.arange(steps)[:, None, None]
+    feature_minimap[:, MINIMAP_FEATURES.visibility_map.index] = 2 * _look_up(
+        sight, every, mxs[None, None, :], mys[None, :, None])
+    screen = Camera((view.screen_size,) * 2)
     half = screen.view_half_extent()
-    camera_box = ((np.abs(mxs[None, :] - center[0]) <= half[0])
-                  & (np.abs(mys[:, None] - center[1]) <= half[1]))
-    feature_minimap[MINIMAP_FEATURES.camera.index] = camera_box
+    feature_minimap[:, MINIMAP_FEATURES.camera.index] = (
+        (np.abs(mxs[None, None, :] - cameras[:, None, None, 0]) <= half[0])
+        & (np.abs(mys[None, :, None] - cameras[:, None, None, 1]) <= half[1]))
 
     # A structure under construction: the share of its build time (from its placement to
     # its completion, a constant of its type) that has passed, in percent.
-    building = alive & (table.done > game_loop) & (table.done != NEVER)
-    span = np.maximum(table.done - table.born, 1)
-    progress = np.where(building, (game_loop - table.born) * 100 // span, 0)
-    scr = {name: np.zeros((view.screen_size,) * 2, np.int32)
+    building = (table.done[u] > loops[t]) & (table.done[u] != NEVER)
+    span = np.maximum(table.done[u] - table.born[u], 1)
+    progress = np.where(building, (loops[t] - table.born[u]) * 100 // span, 0)
+    s = view.screen_size
+    scr = {name: np.zeros((steps, s, s), np.uint16)
            for name in (*values, "build_progress", *DENSITY)}
-    _paint(scr, screen.world_to_pixel(center, points[order]),
-           UNIT_RADIUS * screen.pixels_per_unit,
-           {**values, "build_progress": progress[order]}, view.screen_size)
-    feature_screen = np.zeros((len(SCREEN_FEATURES), *(view.screen_size,) * 2), np.int32)
+    centre = np.stack([cameras[t, 0], cameras[t, 1]])  # [2, N]
+    _paint(scr, t, screen.world_to_pixel(centre, points[t, u]),
+           UNIT_RADIUS * screen.pixels_per_unit, {**values, "build_progress": progress})
+    feature_screen = np.zeros((steps, len(SCREEN_FEATURES), s, s), np.uint16)
     for name, layer in scr.items():
-        feature_screen[getattr(SCREEN_FEATURES, name).index] = layer
-    feature_screen[SCREEN_FEATURES.visibility_map.index] = seen_screen * 2
-    return {"feature_screen": feature_screen, "feature_minimap": feature_minimap,
-            "player": player_vector(table, game_loop, player_id)}
+        feature_screen[:, getattr(SCREEN_FEATURES, name).index] = layer
+    sxs, sys_ = screen.pixel_centers(cameras.T[:, :, None])  # [T, S] each
+    feature_screen[:, SCREEN_FEATURES.visibility_map.index] = 2 * _look_up(
+        sight, every, sxs[:, None, :], sys_[:, :, None])
+    return {"feature_screen": feature_screen, "feature_minimap": feature_minimap}
 
 
-def player_vector(table: UnitTable, game_loop: int, player_id: int) -> np.ndarray:
-    """int32 [11]: PySC2's `player` from the latest PlayerStats event at or before
-    `game_loop` (zeros before the first; idle workers, army, warp gates and larvae are not
-    in PlayerStats and stay 0)."""
-    out = np.zeros(len(Player), np.int32)
-    out[Player.player_id] = player_id
-    loops, values = table.stats.get(player_id, (np.zeros(0, np.int32), None))
-    i = np.searchsorted(loops, game_loop, side="right") - 1
-    if i < 0:
+def _count(at: UnitsAt, player_id: int, names: tuple[str, ...]) -> np.ndarray:
+    """int32 [T]: the player's units of the named types."""
+    ids = stable_unit_ids()
+    return np.sum(at.alive & (at.owner == player_id)
+                  & np.isin(at.unit_type, [ids[n] for n in names]), axis=1).astype(np.int32)
+
+
+WORKERS = ("SCV", "Probe", "Drone")
+
+
+def player_vectors(table: UnitTable, at: UnitsAt, loops: np.ndarray,
+                   player_id: int) -> np.ndarray:
+    """int32 [T, 11]: PySC2's `player` at each of `loops` (`at` = `table.at(loops)`).
+
+    Minerals, vespene, food and active workers come from the latest PlayerStats event at
+    or before each loop (zeros before the first); `food_army` is the food used less the
+    workers. Idle workers are estimated at that event's loop as the player's workers
+    less the active ones. Warp gates and larvae are counted in the unit table.
+    `army_count` is not in replays and stays 0.
+    """
+    out = np.zeros((len(loops), len(Player)), np.int32)
+    out[:, Player.player_id] = player_id
+    out[:, Player.warp_gate_count] = _count(at, player_id, ("WarpGate",))
+    out[:, Player.larva_count] = _count(at, player_id, ("Larva",))
+    stat_loops, values = table.stats.get(player_id, (np.zeros(0, np.int32), None))
+    i = np.searchsorted(stat_loops, loops, side="right") - 1
+    known = i >= 0
+    if not known.any():
         return out
-    row = dict(zip(table.stat_names, values[i]))
-    workers = row.get("m_scoreValueWorkersActiveCount", 0)
-    out[Player.minerals] = row.get("m_scoreValueMineralsCurrent", 0)
-    out[Player.vespene] = row.get("m_scoreValueVespeneCurrent", 0)
-    out[Player.food_used] = row.get("m_scoreValueFoodUsed", 0) // 4096
-    out[Player.food_cap] = row.get("m_scoreValueFoodMade", 0) // 4096
-    out[Player.food_workers] = workers
-    out[Player.food_army] = max(0, out[Player.food_used] - workers)
+    column = {name: values[i[known], n] for n, name in enumerate(table.stat_names)}
+    zero = np.zeros(known.sum(), np.float32)
+    workers = column.get("m_scoreValueWorkersActiveCount", zero)
+    food_used = column.get("m_scoreValueFoodUsed", zero) // 4096
+    idle = np.maximum(0, _count(table.at(stat_loops), player_id, WORKERS)
+                      - values[:, table.stat_names.index("m_scoreValueWorkersActiveCount")])
+    rows = {Player.minerals: column.get("m_scoreValueMineralsCurrent", zero),
+            Player.vespene: column.get("m_scoreValueVespeneCurrent", zero),
+            Player.food_used: food_used,
+            Player.food_cap: column.get("m_scoreValueFoodMade", zero) // 4096,
+            Player.food_workers: workers,
+            Player.food_army: np.maximum(0, food_used - workers),
+            Player.idle_worker_count: idle[i[known]]}
+    for field, value in rows.items():
+        out[known, field] = value
     return out
 
 
-def unit_points(table: UnitTable, known: UnitPoints, game_loop: int) -> np.ndarray:
-    """float32 [U, 2]: each unit's point at `game_loop`: its known one (`known`, by tag
-    index, for the unit that holds the index then), else where it was born or placed."""
-    points = np.stack([table.x, table.y], axis=-1)
-    if len(known.index):
-        alive = np.flatnonzero(table.alive(game_loop))
-        rows = dict(zip(unit_index(table.tag[alive]).tolist(), alive.tolist()))
-        hit = [(rows[i], n) for n, i in enumerate(known.index.tolist()) if i in rows]
-        if hit:
-            r, n = np.asarray(hit).T
-            points[r] = known.xy[n]
+def unit_points(table: UnitTable, known: list[UnitPoints], alive: np.ndarray) -> np.ndarray:
+    """float32 [T, U, 2]: each unit's point at T game loops: its known one (`known[t]`,
+    by tag index, for the unit alive then (`alive` [T, U]) that holds the index), else
+    where it was born or placed."""
+    points = np.repeat(np.stack([table.x, table.y], axis=-1)[None], len(known), axis=0)
+    indices = unit_index(table.tag)
+    lookup = np.full(int(indices.max(initial=0)) + 1, -1, np.int64)
+    for t, k in enumerate(known):
+        rows = np.flatnonzero(alive[t])
+        lookup[:] = -1
+        lookup[indices[rows]] = rows
+        inside = k.index < len(lookup)
+        row = lookup[k.index[inside]]
+        hit = row >= 0
+        points[t, row[hit]] = k.xy[inside][hit]
     return points
 
 
+def selections(table: UnitTable, chosen: list[tuple[int, ...]]) -> np.ndarray:
+    """bool [T, U]: the units whose tags are in each of `chosen` (tags)."""
+    row_of = dict(zip(table.tag.tolist(), range(len(table.tag))))
+    out = np.zeros((len(chosen), len(table.tag)), bool)
+    for t, tags in enumerate(chosen):
+        out[t, [row_of[tag] for tag in tags if tag in row_of]] = True
+    return out
+
+
+def observe_steps(table: UnitTable, labels: ActionLabels, player_id: int, view: View,
+                  steps: range, cards: CommandCards) -> dict:
+    """The observations of a player's agent steps (labelled by `label_players`), at each
+    step's first game loop: the units' known points, the camera and the selection then.
+
+    Returns:
+      {"feature_screen": uint16 [T, 27, S, S], "feature_minimap": uint16 [T, 11, M, M],
+       "player": int32 [T, 11], "available_actions": bool [T, 573]} for T = len(steps).
+    """
+    # One more step than asked: `available_actions` unites a step's and the next's.
+    more = range(steps.start, min(steps.stop + 1, len(labels.steps)))
+    loops = np.asarray([labels.steps[t].game_loop for t in more], np.int64)
+    at = table.at(loops)
+    chosen = selections(table, [labels.selections[t] for t in more])
+    n = len(steps)
+    now = UnitsAt(*(a[:n] for a in at))
+    points = unit_points(table, [labels.unit_points[t] for t in steps], now.alive)
+    cameras = np.asarray(labels.cameras[steps.start:steps.stop], np.float32)
+    obs = render(table, now, loops[:n], points, cameras, chosen[:n], player_id, view)
+    obs["player"] = player_vectors(table, now, loops[:n], player_id)
+    obs["available_actions"] = available_actions(at, chosen, obs["player"], player_id, cards)
+    return obs
+
+
 def observe_step(table: UnitTable, labels: ActionLabels, t: int, player_id: int,
-                 view: View) -> dict:
-    """`observe` at agent step t of a player labelled by `label_players`: the units' known
-    points, the camera and the selection at the step's first game loop."""
-    loop = labels.steps[t].game_loop
-    selected = np.isin(table.tag, np.asarray(labels.selections[t], np.int64))
-    return observe(table, unit_points(table, labels.unit_points[t], loop), loop, player_id,
-                   tuple(labels.cameras[t]), selected, view)
+                 view: View, cards: CommandCards | None = None) -> dict:
+    """`observe_steps` of step t alone, without the leading axis (the shipped cards by
+    default)."""
+    obs = observe_steps(table, labels, player_id, view, range(t, t + 1),
+                        load_cards() if cards is None else cards)
+    return {name: value[0] for name, value in obs.items()}

@@ -14,6 +14,7 @@ import dataclasses
 import functools
 import importlib.resources
 import json
+from typing import NamedTuple
 
 import numpy as np
 
@@ -84,21 +85,50 @@ class UnitTable:
 
     def alive(self, game_loop: int) -> np.ndarray:
         """bool [U]: the units that exist at `game_loop` (born, not yet dead)."""
-        return (self.born <= game_loop) & (game_loop < self.died)
+        return self.at([game_loop]).alive[0]
 
     def owners_at(self, game_loop: int) -> np.ndarray:
         """int32 [U]: each unit's controlling player at `game_loop`."""
-        owner = self.owner.copy()
-        changes = self.owner_changes[self.owner_changes[:, 0] <= game_loop]
-        owner[changes[:, 1]] = changes[:, 2]  # In order: the last change wins.
-        return owner
+        return self.at([game_loop]).owner[0]
 
     def types_at(self, game_loop: int) -> np.ndarray:
         """int32 [U]: each unit's stable unit id at `game_loop`."""
-        types = self.unit_type.copy()
-        changes = self.type_changes[self.type_changes[:, 0] <= game_loop]
-        types[changes[:, 1]] = changes[:, 2]
-        return types
+        return self.at([game_loop]).unit_type[0]
+
+    def at(self, game_loops) -> UnitsAt:
+        """The units' state at each of `game_loops` (ascending ints [T])."""
+        loops = np.asarray(game_loops, np.int64)
+        if np.any(np.diff(loops) < 0):
+            raise ValueError("game_loops must be ascending")
+        alive = (self.born[None, :] <= loops[:, None]) & (loops[:, None] < self.died[None, :])
+        return UnitsAt(alive, _changed(self.owner, self.owner_changes, loops),
+                       _changed(self.unit_type, self.type_changes, loops))
+
+
+class UnitsAt(NamedTuple):
+    """The units' state at T game loops (arrays [T, U], rows as `UnitTable`'s).
+
+    Attributes:
+      alive: bool: the unit exists.
+      owner: int32: its controlling player.
+      unit_type: int32: its stable unit id.
+    """
+
+    alive: np.ndarray
+    owner: np.ndarray
+    unit_type: np.ndarray
+
+
+def _changed(first: np.ndarray, changes: np.ndarray, loops: np.ndarray) -> np.ndarray:
+    """int32 [T, U]: `first` [U] with each change (game loop, row, value) applied from
+    the first of `loops` at or after its game loop; later changes win."""
+    out = np.repeat(first[None, :], len(loops), axis=0)
+    starts = np.searchsorted(loops, changes[:, 0], side="left")
+    for start, row, value in zip(starts.tolist(), changes[:, 1].tolist(),
+                                 changes[:, 2].tolist()):
+        if start < len(loops):
+            out[start:, row] = value
+    return out
 
 
 def unit_table(replay: Replay) -> UnitTable:

@@ -42,11 +42,30 @@ def test_conversion_writes_each_players_steps_and_skips_a_bad_replay(tmp_path):
     # player 2; step 0 of each is a camera move (no action is earlier).
     from array_record.python.array_record_module import ArrayRecordReader
     reader = ArrayRecordReader(summary["replays"][0]["shard"])
-    records = [decode(r) for r in reader.read_all()]
+    records = [decode(r, dataset.schema(QUICK)) for r in reader.read_all()]
     assert len(records) == 24
     assert [float(r["value"]) for r in records] == [1.0] * 12 + [0.0] * 12
     assert [int(r["game_loop"]) for r in records[:3]] == [0, 8, 16]
     assert int(records[0]["action_function"]) == FUNCTIONS.move_camera.id
+    # available_actions: always no_op and the camera; select_larva for the Zerg (player
+    # 2, with larvae from the start), never for the Terran.
+    mask = np.stack([r["available_actions"] for r in records])
+    assert mask[:, [FUNCTIONS.no_op.id, FUNCTIONS.move_camera.id]].all()
+    larva = mask[:, FUNCTIONS.select_larva.id]
+    assert not larva[:12].any() and larva[12:].all()
+
+
+def test_records_round_trip_and_a_wrong_record_is_refused():
+    fields = dataset.schema(QUICK)
+    record = {name: (np.arange(int(np.prod(shape))).reshape(shape) % 3).astype(dtype)
+              for name, (dtype, shape) in fields.items()}
+    back = decode(dataset.encode(record, fields), fields)
+    assert all(np.array_equal(back[k], record[k]) and back[k].dtype == record[k].dtype
+               for k in fields)
+    with pytest.raises(ValueError, match=r"record field 'player' must have shape \(11,\)"):
+        dataset.encode({**record, "player": np.zeros(3)}, fields)
+    with pytest.raises(ValueError, match="does not match the dataset's schema"):
+        decode(b"\0" * 10, fields)
 
 
 def test_a_conversion_resumes_and_an_interrupted_shard_is_not_kept(tmp_path, monkeypatch):
@@ -68,6 +87,8 @@ def test_a_conversion_resumes_and_an_interrupted_shard_is_not_kept(tmp_path, mon
     again = convert_replays([str(KAIROS), str(SLEEPERS)], out, QUICK, log=lambda _: None)
     assert first["replays"][0]["records"] == 24 and not first["replays"][0]["skipped"]
     assert [r["skipped"] for r in again["replays"]] == [True, False]
+    with pytest.raises(ValueError, match="converted with other settings"):
+        convert_replays([str(KAIROS)], out, Settings(max_steps=3), log=lambda _: None)
 
 
 def test_the_split_and_bad_arguments():
