@@ -1,0 +1,223 @@
+"""The supervised training loop on a replay dataset, with checkpoints, resume, logs,
+TensorBoard, a progress bar, plots and evaluation on the fixed held-out games.
+
+A run directory gets:
+
+- `config.json`: the `ReplayTrainConfig`; a run resumes only with the same one (but
+  `steps`, which may grow);
+- `checkpoints/`: Orbax checkpoints of the parameters and Adam's state;
+- `train.csv` and `test.csv`: the training minibatches' metrics (means over
+  `log_every` updates) and the periodic held-out evaluations;
+- `tensorboard/`: both, as scalars;
+- `eval.json`: the final held-out evaluation (`evaluation.summarize`), with the
+  most-frequent-function baseline and the training speed;
+- `curves.png`: the held-out accuracies over training, and the value's accuracy by
+  game time.
+"""
+
+from __future__ import annotations
+
+import concurrent.futures
+import dataclasses
+import json
+import os
+import time
+
+import jax
+
+from sc2jax.atomic import atomic_write, write_json_atomic
+from sc2jax.environment.interface.specs import ObservationFormat
+from sc2jax.experiments.replay_training.config import ReplayTrainConfig
+from sc2jax.experiments.replay_training.evaluation import (
+    function_counts,
+    gather,
+    make_predict,
+    summarize,
+)
+from sc2jax.experiments.reporting.metrics_log import CsvLog, read_csv
+from sc2jax.experiments.reporting.progress import Progress
+from sc2jax.experiments.reporting.tensorboard import SummaryWriter
+from sc2jax.experiments.training.checkpoints import Checkpointer
+from sc2jax.networks import make_network
+from sc2jax.replay_sl.dataset import Settings, loader, read_summary
+from sc2jax.replay_sl.learner import init, make_update, to_batch
+
+EVAL_SEED = 12345
+"""The held-out batches' shuffle: the same records for every run on a dataset."""
+TRAIN_METRICS = ("loss", "value_loss", "function_loss", "argument_loss", "action_top1",
+                 "action_top5", "screen_top1", "minimap_top1", "value_accuracy")
+TEST_METRICS = ("action_top1", "action_top5", "screen_top1", "screen_top5", "minimap_top1",
+                "minimap_top5", "value_accuracy", "build_top1")
+
+
+def _check_run_dir(run_dir: str, config: ReplayTrainConfig) -> None:
+    path = os.path.join(run_dir, "config.json")
+    if not os.path.exists(path):
+        return
+    with open(path) as f:
+        saved = json.load(f)
+    given = dataclasses.asdict(config)
+    diff = {k: (v, given.get(k)) for k, v in saved.items() if given.get(k) != v and k != "steps"}
+    if diff:
+        raise ValueError(f"{run_dir} holds a run with another config; differences (saved, "
+                         f"given): {diff}. Use a new directory.")
+
+
+def _dataset_settings(dataset: str) -> Settings:
+    try:
+        return Settings(**read_summary(dataset)["settings"])
+    except FileNotFoundError:
+        raise ValueError(f"{dataset!r} is not a converted dataset (no conversion.json); "
+                         f"make one with python -m sc2jax.experiments.convert_replays") from None
+
+
+class _Batches:
+    """The training minibatches in order: epoch e is the training split shuffled with
+    seed + e; the next batch is read on a thread while the current one trains."""
+
+    def __init__(self, config: ReplayTrainConfig):
+        self.config, self.epoch, self.data = config, None, None
+        self.per_epoch = len(self._epoch(0))
+        if self.per_epoch == 0:
+            raise ValueError(f"the training split of {config.dataset!r} has fewer records "
+                             f"than one batch of {config.batch_size}")
+        self.pool = concurrent.futures.ThreadPoolExecutor(1)
+
+    def _epoch(self, epoch: int):
+        if epoch != self.epoch:
+            self.epoch = epoch
+            self.data = loader(self.config.dataset, "train", batch_size=self.config.batch_size,
+                               seed=self.config.seed + epoch, drop_remainder=True)
+        return self.data
+
+    def _read(self, step: int):
+        return to_batch(self._epoch(step // self.per_epoch)[step % self.per_epoch])
+
+    def iterate(self, start: int, stop: int):
+        """Yields the batches of updates start..stop-1."""
+        pending = self.pool.submit(self._read, start) if start < stop else None
+        for step in range(start, stop):
+            batch = pending.result()
+            if step + 1 < stop:
+                pending = self.pool.submit(self._read, step + 1)
+            yield batch
+
+
+def _plot(run_dir: str, summary: dict) -> None:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    test = read_csv(os.path.join(run_dir, "test.csv"))
+    fig, (left, right) = plt.subplots(1, 2, figsize=(11, 4))
+    if test and test["step"].size:
+        for name in ("value_accuracy", "action_top1", "action_top5", "screen_top1"):
+            left.plot(test["step"], test[name], marker=".", label=name)
+    left.set(xlabel="updates", ylabel="held-out accuracy", ylim=(0, 1),
+             title="Held-out accuracy over training")
+    left.legend()
+    rows = [r for r in summary["value_by_minute"] if r[2] is not None]
+    right.bar([r[0] for r in rows], [r[2] for r in rows])
+    right.axhline(0.5, color="grey", linestyle="--", label="chance")
+    right.set(xlabel="game time (minutes)", ylabel="value accuracy", ylim=(0, 1),
+              title="Value accuracy by game time")
+    right.legend()
+    fig.tight_layout()
+    with atomic_write(os.path.join(run_dir, "curves.png"), "wb") as f:
+        fig.savefig(f, format="png")
+    plt.close(fig)
+
+
+def train_replays(config: ReplayTrainConfig, run_dir: str, *, log=print,
+                  progress: bool = True) -> dict:
+    """Trains (or resumes) a run, then evaluates it on the held-out split.
+
+    Returns:
+      The final evaluation (what `eval.json` holds).
+
+    Raises:
+      ValueError: for a folder that is not a dataset, a dataset without both splits, or
+        a run directory that holds a run with another config.
+    """
+    settings = _dataset_settings(config.dataset)
+    test = loader(config.dataset, "test", batch_size=config.batch_size, seed=EVAL_SEED,
+                  drop_remainder=True)
+    batches = _Batches(config)
+    if len(test) == 0:
+        raise ValueError(f"the test split of {config.dataset!r} has fewer records than one "
+                         f"batch of {config.batch_size}")
+    os.makedirs(run_dir, exist_ok=True)
+    _check_run_dir(run_dir, config)
+    write_json_atomic(os.path.join(run_dir, "config.json"), dataclasses.asdict(config))
+    network = make_network(config.agent, ObservationFormat(
+        screen_size=settings.screen_size, minimap_size=settings.minimap_size))
+    state = init(network, to_batch(test[0]), jax.random.PRNGKey(config.seed),
+                 learning_rate=config.learning_rate)
+    update = make_update(network, learning_rate=config.learning_rate,
+                         value_weight=config.value_weight)
+    predict = make_predict(network)
+    checkpointer = Checkpointer(os.path.join(run_dir, "checkpoints"))
+    step = 0
+    if checkpointer.latest_step() is not None:
+        state, meta = checkpointer.restore(state)
+        step = meta["step"]
+        log(f"Resumed from update {step}")
+    resume = step if step else None
+    train_log = CsvLog(os.path.join(run_dir, "train.csv"), ("step", *TRAIN_METRICS),
+                       resume_step=resume)
+    test_log = CsvLog(os.path.join(run_dir, "test.csv"), ("step", *TEST_METRICS),
+                      resume_step=resume)
+    writer = SummaryWriter(os.path.join(run_dir, "tensorboard"))
+    held_out = [test[i] for i in range(min(config.eval_batches, len(test)))]
+
+    def evaluate_now(at: int) -> None:
+        found = summarize(gather(predict, state.params, held_out))
+        row = {name: found[name] for name in TEST_METRICS}
+        test_log.write({"step": at, **row})
+        writer.scalars({f"test/{k}": v for k, v in row.items() if v is not None}, at)
+        writer.flush()
+
+    log(f"Training {config.agent} on {config.dataset}: {batches.per_epoch} batches of "
+        f"{config.batch_size} per epoch, {len(test)} held-out batches; updates {step} to "
+        f"{config.steps}")
+    bar = Progress(max(config.steps, 1), show=("loss", "action_top1", "value_accuracy")
+                   ) if progress else None
+    sums, count, started, trained = {}, 0, time.time(), 0
+    if step == 0 and config.steps > 0:
+        evaluate_now(0)
+    for batch in batches.iterate(step, config.steps):
+        state, metrics = update(state, batch)
+        step, trained = step + 1, trained + 1
+        metrics = jax.device_get(metrics)
+        for name in TRAIN_METRICS:
+            sums[name] = sums.get(name, 0.0) + float(metrics[name])
+        count += 1
+        if step % config.log_every == 0 or step == config.steps:
+            row = {name: value / count for name, value in sums.items()}
+            train_log.write({"step": step, **row})
+            writer.scalars({f"train/{k}": v for k, v in row.items()}, step)
+            sums, count = {}, 0
+            if bar:
+                bar.update(step, row)
+        if step % config.eval_every == 0 or step == config.steps:
+            evaluate_now(step)
+        if step % config.checkpoint_every == 0 or step == config.steps:
+            checkpointer.save(step, state, {"step": step})
+    seconds = time.time() - started
+    if bar:
+        bar.close()
+    log("Final evaluation on the held-out games")
+    final = summarize(
+        gather(predict, state.params,
+               (test[i] for i in range(min(config.final_eval_batches, len(test))))),
+        function_counts(batches._epoch(0)[i] for i in range(
+            min(config.final_eval_batches, batches.per_epoch))))
+    final.update(agent=config.agent, updates=step, dataset_settings=dataclasses.asdict(settings),
+                 train_samples_per_second=(trained * config.batch_size / seconds
+                                           if trained else None))
+    write_json_atomic(os.path.join(run_dir, "eval.json"), final)
+    for closing in (train_log, test_log, writer, checkpointer):
+        closing.close()
+    _plot(run_dir, final)
+    return final
