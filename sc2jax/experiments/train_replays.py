@@ -68,7 +68,8 @@ def main(argv) -> None:
     print(f"\nHeld-out games, {result['examples']} records, after {result['updates']} updates:")
     print("| | top-1 | top-5 |\n|---|---:|---:|")
     for name, label in (("action", "function"), ("screen", "screen"), ("minimap", "minimap"),
-                        ("build", "next build command"),
+                        ("build", "build commands"),
+                        ("next_build", "next build command, among build commands"),
                         ("majority", f"most frequent ({result['majority_function']})")):
         print(f"| {label} | {pct(result[f'{name}_top1'])} | {pct(result[f'{name}_top5'])} |")
     print(f"Value accuracy {pct(result['value_accuracy'])} (after 15 minutes: "

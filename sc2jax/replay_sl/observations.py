@@ -26,6 +26,7 @@ not in replays and stay zero.
 
 from __future__ import annotations
 
+import collections
 import dataclasses
 
 import numpy as np
@@ -245,16 +246,21 @@ def player_vectors(table: UnitTable, at: UnitsAt, loops: np.ndarray,
     known = i >= 0
     if not known.any():
         return out
-    column = {name: values[i[known], n] for n, name in enumerate(table.stat_names)}
-    zero = np.zeros(known.sum(), np.float32)
-    workers = column.get("m_scoreValueWorkersActiveCount", zero)
-    food_used = column.get("m_scoreValueFoodUsed", zero) // 4096
+    # Each field at every PlayerStats event [S] (0 where a build's events lack it).
+    at_event = collections.defaultdict(lambda: np.zeros(len(stat_loops), np.float32),
+                                       {name: values[:, n]
+                                        for n, name in enumerate(table.stat_names)})
     idle = np.maximum(0, _count(table.at(stat_loops), player_id, WORKERS)
-                      - values[:, table.stat_names.index("m_scoreValueWorkersActiveCount")])
-    rows = {Player.minerals: column.get("m_scoreValueMineralsCurrent", zero),
-            Player.vespene: column.get("m_scoreValueVespeneCurrent", zero),
+                      - at_event["m_scoreValueWorkersActiveCount"])
+    column = {name: at_event[name][i[known]] for name in (
+        "m_scoreValueWorkersActiveCount", "m_scoreValueFoodUsed", "m_scoreValueFoodMade",
+        "m_scoreValueMineralsCurrent", "m_scoreValueVespeneCurrent")}
+    workers = column["m_scoreValueWorkersActiveCount"]
+    food_used = column["m_scoreValueFoodUsed"] // 4096
+    rows = {Player.minerals: column["m_scoreValueMineralsCurrent"],
+            Player.vespene: column["m_scoreValueVespeneCurrent"],
             Player.food_used: food_used,
-            Player.food_cap: column.get("m_scoreValueFoodMade", zero) // 4096,
+            Player.food_cap: column["m_scoreValueFoodMade"] // 4096,
             Player.food_workers: workers,
             Player.food_army: np.maximum(0, food_used - workers),
             Player.idle_worker_count: idle[i[known]]}

@@ -13,10 +13,12 @@ import collections
 from collections.abc import Iterable
 
 import jax
+import jax.numpy as jnp
 import numpy as np
 
 from sc2jax.environment.interface.functions import FUNCTIONS, NUM_FUNCTIONS
 from sc2jax.losses.supervised import SupervisedBatch, supervised_ranks
+from sc2jax.networks.policy import mask_function_logits
 from sc2jax.replay_sl.learner import to_batch
 
 LOOPS_PER_MINUTE = 22.4 * 60
@@ -33,8 +35,13 @@ def make_predict(network):
     @jax.jit
     def predict(params, batch: SupervisedBatch) -> dict:
         out = network.apply(params, batch.observation, batch.action)
-        ranks = supervised_ranks(out, batch.action, batch.observation["available_actions"])
-        return {**ranks, "value_logit": out.value}
+        available = batch.observation["available_actions"]
+        ranks = supervised_ranks(out, batch.action, available)
+        # The rank among the available build commands alone (MSC's "next build" task).
+        builds = mask_function_logits(out.function_logits, available & BUILD[None, :])
+        target = jnp.take_along_axis(builds, batch.action.function[:, None], axis=-1)
+        return {**ranks, "build_rank": jnp.sum(builds > target, axis=-1),
+                "value_logit": out.value}
 
     return predict
 
@@ -83,7 +90,9 @@ def summarize(examples: dict[str, np.ndarray], train_counts: np.ndarray | None =
       value_accuracy, value_after_15_min, value_by_minute ([minute, examples, accuracy]
         rows by whole minutes of game time, up to `max_minute`);
       build_top1, build_top5, build_examples: the function's accuracy where the label
-        builds, trains, researches or morphs (`BUILD_PREFIXES`);
+        builds, trains, researches or morphs (`BUILD_PREFIXES`); next_build_top1/top5:
+        there, its rank among the available build commands alone (the next build
+        command, as MSC measures it);
       label_available: the share of labels that the records' own mask allows (the rest
         were added by `learner.to_batch`); mean_available: the mask's mean size;
       majority_top1/top5 (with `train_counts`): predicting the functions most frequent in
@@ -105,6 +114,8 @@ def summarize(examples: dict[str, np.ndarray], train_counts: np.ndarray | None =
         value_by_minute=[[m, int(np.sum(minute == m)), _share(correct, minute == m)]
                          for m in range(max_minute + 1) if np.any(minute == m)],
         build_top1=_share(rank < 1, build), build_top5=_share(rank < 5, build),
+        next_build_top1=_share(examples["build_rank"] < 1, build),
+        next_build_top5=_share(examples["build_rank"] < 5, build),
         build_examples=int(build.sum()),
         label_available=_share(examples["label_available"]),
         mean_available=float(np.mean(examples["available"].sum(axis=1))))

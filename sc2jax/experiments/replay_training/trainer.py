@@ -10,7 +10,8 @@ A run directory gets:
   `log_every` updates) and the periodic held-out evaluations;
 - `tensorboard/`: both, as scalars;
 - `eval.json`: the final held-out evaluation (`evaluation.summarize`), with the
-  most-frequent-function baseline and the training speed;
+  most-frequent-function baseline and the loop's speed (records per second of this
+  session's updates, periodic evaluations and checkpoints included);
 - `curves.png`: the held-out accuracies over training, and the value's accuracy by
   game time.
 """
@@ -77,13 +78,14 @@ class _Batches:
 
     def __init__(self, config: ReplayTrainConfig):
         self.config, self.epoch, self.data = config, None, None
-        self.per_epoch = len(self._epoch(0))
+        self.per_epoch = len(self.epoch_data(0))
         if self.per_epoch == 0:
             raise ValueError(f"the training split of {config.dataset!r} has fewer records "
                              f"than one batch of {config.batch_size}")
         self.pool = concurrent.futures.ThreadPoolExecutor(1)
 
-    def _epoch(self, epoch: int):
+    def epoch_data(self, epoch: int):
+        """The training split shuffled for `epoch`, as minibatches."""
         if epoch != self.epoch:
             self.epoch = epoch
             self.data = loader(self.config.dataset, "train", batch_size=self.config.batch_size,
@@ -91,7 +93,7 @@ class _Batches:
         return self.data
 
     def _read(self, step: int):
-        return to_batch(self._epoch(step // self.per_epoch)[step % self.per_epoch])
+        return to_batch(self.epoch_data(step // self.per_epoch)[step % self.per_epoch])
 
     def iterate(self, start: int, stop: int):
         """Yields the batches of updates start..stop-1."""
@@ -211,7 +213,7 @@ def train_replays(config: ReplayTrainConfig, run_dir: str, *, log=print,
     final = summarize(
         gather(predict, state.params,
                (test[i] for i in range(min(config.final_eval_batches, len(test))))),
-        function_counts(batches._epoch(0)[i] for i in range(
+        function_counts(batches.epoch_data(0)[i] for i in range(
             min(config.final_eval_batches, batches.per_epoch))))
     final.update(agent=config.agent, updates=step, dataset_settings=dataclasses.asdict(settings),
                  train_samples_per_second=(trained * config.batch_size / seconds

@@ -25,6 +25,7 @@ def test_summarize_by_hand():
     available[:, [move, build, attack]] = True
     examples = {
         "function": np.asarray([0, 3, 7, 0]), "label": np.asarray([move, build, attack, move]),
+        "build_rank": np.asarray([5, 0, 2, 1]),
         "screen": np.asarray([0, 1, 9, 0]), "uses_screen": np.asarray([0, 1, 1, 0], bool),
         "minimap": np.zeros(4, int), "uses_minimap": np.zeros(4, bool),
         "value_logit": np.asarray([1.0, -1.0, 1.0, 2.0]),
@@ -40,6 +41,7 @@ def test_summarize_by_hand():
     assert out["value_accuracy"] == 0.75 and out["value_after_15_min"] == 0.5
     assert out["value_by_minute"] == [[1, 1, 1.0], [2, 1, 1.0], [15, 1, 0.0], [20, 1, 1.0]]
     assert (out["build_top1"], out["build_top5"], out["build_examples"]) == (0.0, 1.0, 1)
+    assert out["next_build_top1"] == 1.0  # Among the build commands alone: first.
     assert out["label_available"] == 0.75 and out["mean_available"] == 3
     # Majority: move_camera first, then Attack, then the Pylon: ranks 0, 2, 1, 0.
     assert out["majority_function"] == "move_camera"
