@@ -19,7 +19,7 @@ import jax
 
 from sc2jax.environment.interface.specs import ObservationFormat
 from sc2jax.networks import make_network
-from sc2jax.replay_sl.dataset import Settings, loader, read_summary
+from sc2jax.replay_sl.dataset import dataset_settings, loader
 from sc2jax.replay_sl.learner import init, make_update, to_batch
 
 
@@ -31,7 +31,7 @@ def main() -> None:
     parser.add_argument("--updates", type=int, default=5)
     parser.add_argument("--repeats", type=int, default=3)
     args = parser.parse_args()
-    settings = Settings(**read_summary(args.dataset)["settings"])
+    settings = dataset_settings(args.dataset)
     data = loader(args.dataset, "train", batch_size=args.batch_size, seed=0,
                   drop_remainder=True)
     batches = [to_batch(data[i]) for i in range(args.updates)]

@@ -48,6 +48,8 @@ SHARD_SUFFIX = ".array_record"
 WRITER_OPTIONS = "group_size:1,zstd:3"
 """ArrayRecord's options: one record per chunk (any record read alone), zstd level 3."""
 SPLITS = ("train", "test")
+FORMAT = 2
+"""The records' format (`conversion.json`): 2 is `schema`'s raw bytes (1 was npz)."""
 
 
 def split_of(sha1: str) -> str:
@@ -231,12 +233,13 @@ def convert_replays(paths: list[str], output: str | os.PathLike, settings: Setti
     check_positive_int("processes", processes)
     output = pathlib.Path(output)
     if (output / "conversion.json").exists():
-        before = read_summary(output)["settings"]
-        if before != dataclasses.asdict(settings):
+        before = dataset_settings(output)
+        if before != settings:
             raise ValueError(f"{str(output)!r} holds a dataset converted with other settings "
                              f"({before}); convert into another folder, or with those")
     output.mkdir(parents=True, exist_ok=True)
-    summary = {"settings": dataclasses.asdict(settings), "replays": [], "failed": []}
+    summary = {"format": FORMAT, "settings": dataclasses.asdict(settings), "replays": [],
+               "failed": []}
     jobs = [(p, str(output), settings) for p in paths]
 
     def record(done: int, result: dict) -> None:
@@ -280,7 +283,7 @@ def loader(output: str | os.PathLike, split: str, *, batch_size: int = 64, seed:
     paths = shards(output, split)
     if not paths:
         raise ValueError(f"no shards of split {split!r} under {str(output)!r}")
-    fields = schema(Settings(**read_summary(output)["settings"]))
+    fields = schema(dataset_settings(output))
     source = grain.sources.ArrayRecordDataSource(paths)
     return (grain.MapDataset.source(source).shuffle(seed=seed)
             .map(functools.partial(decode, fields=fields))
@@ -290,3 +293,22 @@ def loader(output: str | os.PathLike, split: str, *, batch_size: int = 64, seed:
 def read_summary(output: str | os.PathLike) -> dict:
     """`conversion.json` of a dataset directory."""
     return json.loads((pathlib.Path(output) / "conversion.json").read_text())
+
+
+def dataset_settings(output: str | os.PathLike) -> Settings:
+    """The settings a dataset was converted with.
+
+    Raises:
+      ValueError: for a folder without `conversion.json`, or a dataset of another
+        record format.
+    """
+    try:
+        summary = read_summary(output)
+    except FileNotFoundError:
+        raise ValueError(f"{str(output)!r} is not a converted dataset (no conversion.json); "
+                         f"make one with python -m sc2jax.experiments.convert_replays"
+                         ) from None
+    if summary.get("format") != FORMAT:
+        raise ValueError(f"{str(output)!r} holds records of format {summary.get('format')}, "
+                         f"this sc2jax reads format {FORMAT}; convert the replays again")
+    return Settings(**summary["settings"])

@@ -91,6 +91,15 @@ def test_a_conversion_resumes_and_an_interrupted_shard_is_not_kept(tmp_path, mon
         convert_replays([str(KAIROS)], out, Settings(max_steps=3), log=lambda _: None)
 
 
+def test_a_dataset_of_another_format_is_refused(tmp_path):
+    (tmp_path / "conversion.json").write_text('{"settings": {}, "replays": [], "failed": []}')
+    with pytest.raises(ValueError, match="holds records of format None, this sc2jax reads "
+                                         "format 2; convert the replays again"):
+        dataset.dataset_settings(tmp_path)
+    with pytest.raises(ValueError, match="is not a converted dataset"):
+        dataset.dataset_settings(tmp_path / "nowhere")
+
+
 def test_the_split_and_bad_arguments():
     assert split_of("0" * 40) == "test" and split_of("1" * 40) == "train"
     assert split_of(format(10 * 12345, "040x")) == "test"

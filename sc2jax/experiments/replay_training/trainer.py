@@ -40,13 +40,15 @@ from sc2jax.experiments.reporting.progress import Progress
 from sc2jax.experiments.reporting.tensorboard import SummaryWriter
 from sc2jax.experiments.training.checkpoints import Checkpointer
 from sc2jax.networks import make_network
-from sc2jax.replay_sl.dataset import Settings, loader, read_summary
+from sc2jax.replay_sl.dataset import dataset_settings, loader
 from sc2jax.replay_sl.learner import init, make_update, to_batch
 
 EVAL_SEED = 12345
 """The held-out batches' shuffle: the same records for every run on a dataset."""
 TRAIN_METRICS = ("loss", "value_loss", "function_loss", "argument_loss", "action_top1",
                  "action_top5", "screen_top1", "minimap_top1", "value_accuracy")
+MIN_EXAMPLES_PER_MINUTE = 50
+"""Minutes of game time with fewer held-out records are left out of the value plot."""
 TEST_METRICS = ("action_top1", "action_top5", "screen_top1", "screen_top5", "minimap_top1",
                 "minimap_top5", "value_accuracy", "build_top1")
 
@@ -62,14 +64,6 @@ def _check_run_dir(run_dir: str, config: ReplayTrainConfig) -> None:
     if diff:
         raise ValueError(f"{run_dir} holds a run with another config; differences (saved, "
                          f"given): {diff}. Use a new directory.")
-
-
-def _dataset_settings(dataset: str) -> Settings:
-    try:
-        return Settings(**read_summary(dataset)["settings"])
-    except FileNotFoundError:
-        raise ValueError(f"{dataset!r} is not a converted dataset (no conversion.json); "
-                         f"make one with python -m sc2jax.experiments.convert_replays") from None
 
 
 class _Batches:
@@ -116,10 +110,12 @@ def _plot(run_dir: str, summary: dict) -> None:
     if test and test["step"].size:
         for name in ("value_accuracy", "action_top1", "action_top5", "screen_top1"):
             left.plot(test["step"], test[name], marker=".", label=name)
+        left.legend()
+    else:
+        left.text(0.5, 0.5, "not trained", ha="center", transform=left.transAxes)
     left.set(xlabel="updates", ylabel="held-out accuracy", ylim=(0, 1),
              title="Held-out accuracy over training")
-    left.legend()
-    rows = [r for r in summary["value_by_minute"] if r[2] is not None]
+    rows = [r for r in summary["value_by_minute"] if r[1] >= MIN_EXAMPLES_PER_MINUTE]
     right.bar([r[0] for r in rows], [r[2] for r in rows])
     right.axhline(0.5, color="grey", linestyle="--", label="chance")
     right.set(xlabel="game time (minutes)", ylabel="value accuracy", ylim=(0, 1),
@@ -142,7 +138,7 @@ def train_replays(config: ReplayTrainConfig, run_dir: str, *, log=print,
       ValueError: for a folder that is not a dataset, a dataset without both splits, or
         a run directory that holds a run with another config.
     """
-    settings = _dataset_settings(config.dataset)
+    settings = dataset_settings(config.dataset)
     test = loader(config.dataset, "test", batch_size=config.batch_size, seed=EVAL_SEED,
                   drop_remainder=True)
     batches = _Batches(config)
