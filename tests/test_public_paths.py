@@ -95,10 +95,31 @@ def test_a_preset_sets_the_config_and_a_given_flag_overrides_it():
     "sc2jax.experiments.table1", "sc2jax.experiments.random_search",
     "sc2jax.experiments.benchmark", "sc2jax.experiments.benchmark_networks",
     "sc2jax.experiments.benchmark_training", "sc2jax.experiments.benchmark_protocol",
-    "sc2jax.experiments.replay_info", "sc2jax.environment.server"])
+    "sc2jax.experiments.replay_info", "sc2jax.experiments.convert_replays",
+    "sc2jax.experiments.train_replays", "sc2jax.environment.server"])
 def test_every_command_starts(command):
     out = subprocess.run([sys.executable, "-m", command, "--help"], capture_output=True,
                          text=True, timeout=300)
     # absl's --help exits with 1 after printing the flags; argparse's with 0.
     assert out.returncode in (0, 1) and "Traceback" not in out.stderr, out.stderr[-2000:]
     assert "--" in out.stdout, out.stdout[-2000:]  # its flags
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("args, message", [
+    (["sc2jax.experiments.evaluate", "--screen_size=-16"],
+     "error: screen_size must be in [16, 256] pixels per side, got -16"),
+    (["sc2jax.experiments.train", "--run_dir=FILE"], "is a file; give a directory"),
+    (["sc2jax.experiments.train", "--functions=no_op,Move_scren"],
+     "unknown function 'Move_scren'; give PySC2 names or ids 0..572; did you mean "
+     "Move_screen"),
+    (["sc2jax.experiments.train_replays", "--dataset=FILE"], "is not a converted dataset"),
+])
+def test_bad_flags_give_one_line_errors(tmp_path, args, message):
+    a_file = tmp_path / "a_file"
+    a_file.write_text("")
+    args = [a.replace("FILE", str(a_file)) for a in args]
+    out = subprocess.run([sys.executable, "-m", *args], capture_output=True, text=True,
+                         timeout=300)
+    assert out.returncode != 0 and "Traceback" not in out.stderr, out.stderr[-2000:]
+    assert message in out.stderr, out.stderr[-2000:]

@@ -28,6 +28,7 @@ from absl import app, flags
 from sc2jax.atomic import write_json_atomic
 from sc2jax.environment import MAPS, make
 from sc2jax.environment.agents import required_format
+from sc2jax.environment.interface.specs import ObservationFormat
 from sc2jax.environment.sc2api.game_env import GameEnvBatch
 from sc2jax.experiments.reporting.paper import paper_rows
 from sc2jax.experiments.training import evaluation, trainer
@@ -69,6 +70,7 @@ def check_flags() -> None:
                          "takes no --checkpoint_step")
     if not _TEMPERATURE.value > 0:
         raise ValueError(f"--temperature must be > 0, got {_TEMPERATURE.value}")
+    ObservationFormat(screen_size=_SCREEN.value, minimap_size=_MINIMAP.value)  # The sizes.
 
 flags.adopt_module_key_flags(training_flags)
 

@@ -304,7 +304,7 @@ def dataset_settings(output: str | os.PathLike) -> Settings:
     """
     try:
         summary = read_summary(output)
-    except FileNotFoundError:
+    except (FileNotFoundError, NotADirectoryError):
         raise ValueError(f"{str(output)!r} is not a converted dataset (no conversion.json); "
                          f"make one with python -m sc2jax.experiments.convert_replays"
                          ) from None

@@ -15,6 +15,7 @@ there is ignored by the game and, with a value close to 0, carries almost no gra
 
 from __future__ import annotations
 
+import difflib
 from collections.abc import Callable, Sequence
 from typing import Any, NamedTuple
 
@@ -66,8 +67,10 @@ def function_mask(functions: Sequence[int | str] | None) -> np.ndarray | None:
     mask = np.zeros(NUM_FUNCTIONS, bool)
     for function in functions:
         if function not in FUNCTIONS:
+            close = difflib.get_close_matches(str(function), [f.name for f in FUNCTIONS], n=3)
+            hint = f"; did you mean {', '.join(close)}?" if close else ""
             raise ValueError(f"unknown function {function!r}; give PySC2 names or ids "
-                             f"0..{NUM_FUNCTIONS - 1}")
+                             f"0..{NUM_FUNCTIONS - 1}{hint}")
         mask[FUNCTIONS[function].id] = True
     if not mask[0]:
         raise ValueError(f"the action set {list(functions)} must include no_op")

@@ -8,6 +8,7 @@ differ from `TrainConfig`'s; the training commands (train, sweep, table1) take t
 from __future__ import annotations
 
 import dataclasses
+import os
 import tempfile
 
 from absl import flags
@@ -134,6 +135,9 @@ def config_from_flags() -> TrainConfig:
     base = get_preset(FLAGS.preset).config if FLAGS.preset else _DEFAULTS
     changes = {_TABLE[name][0]: field_value(name) for name in _TABLE
                if _TABLE[name][0] and (FLAGS[name].present or not FLAGS.preset)}
+    run_dir = FLAGS["run_dir"].value if "run_dir" in FLAGS else None
+    if run_dir and os.path.exists(run_dir) and not os.path.isdir(run_dir):
+        raise ValueError(f"--run_dir={run_dir!r} is a file; give a directory (new or a run's)")
     return dataclasses.replace(base, **changes)
 
 
