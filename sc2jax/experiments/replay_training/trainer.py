@@ -119,7 +119,8 @@ def _plot(run_dir: str, summary: dict) -> None:
     right.bar([r[0] for r in rows], [r[2] for r in rows])
     right.axhline(0.5, color="grey", linestyle="--", label="chance")
     right.set(xlabel="game time (minutes)", ylabel="value accuracy", ylim=(0, 1),
-              title="Value accuracy by game time")
+              title=f"Value accuracy by game time (minutes with "
+                    f"{MIN_EXAMPLES_PER_MINUTE}+ records)")
     right.legend()
     fig.tight_layout()
     with atomic_write(os.path.join(run_dir, "curves.png"), "wb") as f:
