@@ -84,6 +84,11 @@ def test_a_preset_sets_the_config_and_a_given_flag_overrides_it():
         else:
             raise AssertionError("no error for an unknown preset")
         assert len(PRESETS) == 8 and all(p.config.map_name for p in PRESETS.values())
+        # The persistent compilation cache: on at --compilation_cache, off with ''.
+        import jax
+        FLAGS.unparse_flags(); FLAGS(["x", "--compilation_cache=/tmp/sc2jax-test-cache"])
+        training_flags.use_compilation_cache()
+        assert jax.config.jax_compilation_cache_dir == "/tmp/sc2jax-test-cache"
         print("ok")
     """)
     assert out.returncode == 0 and out.stdout.strip() == "ok", out.stderr[-2000:]

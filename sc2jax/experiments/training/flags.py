@@ -11,6 +11,7 @@ import dataclasses
 import os
 import tempfile
 
+import jax
 from absl import flags
 
 from sc2jax.environment.interface.map_names import MINI_GAMES
@@ -20,6 +21,20 @@ from sc2jax.networks.factory import NETWORKS
 
 FLAGS = flags.FLAGS
 _DEFAULTS = TrainConfig()
+
+flags.DEFINE_string(
+    "compilation_cache", os.path.join(os.path.expanduser("~"), ".cache", "sc2jax", "jax"),
+    "JAX's persistent compilation cache: compiled programs are written here and reused by "
+    "later runs of the same programs, so their first steps skip compilation. '' turns it "
+    "off.")
+
+
+def use_compilation_cache() -> None:
+    """Points JAX's persistent compilation cache at --compilation_cache (unless ''):
+    programs that took at least a second to compile are kept and reused."""
+    if FLAGS.compilation_cache:
+        jax.config.update("jax_compilation_cache_dir", FLAGS.compilation_cache)
+        jax.config.update("jax_persistent_cache_min_compile_time_secs", 1.0)
 
 # flag name -> (TrainConfig field, absl definer, help).
 _TABLE = {
