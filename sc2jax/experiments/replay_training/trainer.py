@@ -54,6 +54,8 @@ TEST_METRICS = ("action_top1", "action_top5", "screen_top1", "screen_top5", "min
 
 
 def _check_run_dir(run_dir: str, config: ReplayTrainConfig) -> None:
+    if os.path.exists(run_dir) and not os.path.isdir(run_dir):
+        raise ValueError(f"run_dir {run_dir!r} is a file; give a directory (new or a run's)")
     path = os.path.join(run_dir, "config.json")
     if not os.path.exists(path):
         return
@@ -146,8 +148,8 @@ def train_replays(config: ReplayTrainConfig, run_dir: str, *, log=print,
     if len(test) == 0:
         raise ValueError(f"the test split of {config.dataset!r} has fewer records than one "
                          f"batch of {config.batch_size}")
-    os.makedirs(run_dir, exist_ok=True)
     _check_run_dir(run_dir, config)
+    os.makedirs(run_dir, exist_ok=True)
     write_json_atomic(os.path.join(run_dir, "config.json"), dataclasses.asdict(config))
     network = make_network(config.agent, ObservationFormat(
         screen_size=settings.screen_size, minimap_size=settings.minimap_size))

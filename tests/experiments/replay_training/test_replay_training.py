@@ -86,6 +86,8 @@ def test_a_run_trains_checkpoints_resumes_and_reports(tmp_path):
     for name in ("action_top1", "value_accuracy", "majority_top1", "value_by_minute"):
         assert saved[name] is not None, name
     assert 0 < saved["label_available"] <= 1 and saved["train_samples_per_second"] > 0
+    with pytest.raises(ValueError, match="is a file; give a directory"):
+        train_replays(config, str(run / "config.json"), progress=False, log=lambda _: None)
     with pytest.raises(ValueError, match="holds a run with another config"):
         train_replays(ReplayTrainConfig(**{**config.__dict__, "agent": "fullyconv"}),
                       str(run), progress=False, log=lambda _: None)
