@@ -87,7 +87,7 @@ def test_a_preset_sets_the_config_and_a_given_flag_overrides_it():
         # The persistent compilation cache: on at --compilation_cache, off with ''.
         import jax
         FLAGS.unparse_flags(); FLAGS(["x", "--compilation_cache=/tmp/sc2jax-test-cache"])
-        training_flags.use_compilation_cache()
+        training_flags.start_command()
         assert jax.config.jax_compilation_cache_dir == "/tmp/sc2jax-test-cache"
         print("ok")
     """)

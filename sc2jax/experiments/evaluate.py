@@ -77,7 +77,7 @@ flags.adopt_module_key_flags(training_flags)
 
 def main(argv) -> None:
     del argv
-    training_flags.use_compilation_cache()
+    training_flags.start_command()
     try:
         check_flags()
     except ValueError as error:

@@ -43,7 +43,7 @@ flags.adopt_module_key_flags(training_flags)
 
 def main(argv) -> None:
     del argv
-    training_flags.use_compilation_cache()
+    training_flags.start_command()
     try:
         config = TrainConfig(map_name=_MAP.value, agent=_AGENT.value,
                              screen_size=_SCREEN.value, minimap_size=_MINIMAP.value,

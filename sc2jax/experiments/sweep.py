@@ -30,7 +30,7 @@ flags.adopt_module_key_flags(sweep_flags)
 
 def main(argv) -> None:
     del argv
-    training_flags.use_compilation_cache()
+    training_flags.start_command()
     try:
         config = training_flags.config_from_flags()
         rates = sweep_flags.learning_rates_from_flags()

@@ -38,7 +38,7 @@ flags.adopt_module_key_flags(sweep_flags)
 
 def main(argv) -> None:
     del argv
-    training_flags.use_compilation_cache()
+    training_flags.start_command()
     if FLAGS["map"].present:
         sys.exit("error: table1 takes --maps (comma-separated, or 'all'), not --map")
     try:

@@ -38,7 +38,7 @@ flags.adopt_module_key_flags(training_flags)
 
 def main(argv) -> None:
     del argv
-    training_flags.use_compilation_cache()
+    training_flags.start_command()
     try:
         config = training_flags.config_from_flags()
     except ValueError as error:

@@ -27,6 +27,7 @@ from absl import app, flags
 
 from sc2jax.experiments.replay_training.config import AGENTS, ReplayTrainConfig
 from sc2jax.experiments.replay_training.trainer import train_replays
+from sc2jax.experiments.training import flags as training_flags
 
 _HELP = {
     "dataset": "The dataset's folder (written by convert_replays).",
@@ -52,6 +53,7 @@ _RUN_DIR = flags.DEFINE_string("run_dir", None, "The run's folder (default: a ne
 
 def main(argv) -> None:
     del argv
+    training_flags.start_command()
     if not _FLAGS["dataset"].value:
         sys.exit("error: --dataset is required")
     try:

@@ -8,6 +8,7 @@ differ from `TrainConfig`'s; the training commands (train, sweep, table1) take t
 from __future__ import annotations
 
 import dataclasses
+import logging
 import os
 import tempfile
 
@@ -29,9 +30,12 @@ flags.DEFINE_string(
     "off.")
 
 
-def use_compilation_cache() -> None:
-    """Points JAX's persistent compilation cache at --compilation_cache (unless ''):
-    programs that took at least a second to compile are kept and reused."""
+def start_command() -> None:
+    """What a command does first, once its flags are parsed: JAX's persistent compilation
+    cache at --compilation_cache (unless ''; programs that took at least a second to
+    compile are kept and reused), and no INFO line from JAX about the backends it looks
+    for and does not find (TPU)."""
+    logging.getLogger("jax._src.xla_bridge").setLevel(logging.WARNING)
     if FLAGS.compilation_cache:
         jax.config.update("jax_compilation_cache_dir", FLAGS.compilation_cache)
         jax.config.update("jax_persistent_cache_min_compile_time_secs", 1.0)
