@@ -250,8 +250,10 @@ def player_vectors(table: UnitTable, at: UnitsAt, loops: np.ndarray,
     at_event = collections.defaultdict(lambda: np.zeros(len(stat_loops), np.float32),
                                        {name: values[:, n]
                                         for n, name in enumerate(table.stat_names)})
-    idle = np.maximum(0, _count(table.at(stat_loops), player_id, WORKERS)
-                      - at_event["m_scoreValueWorkersActiveCount"])
+    # Idle workers at the events these loops read, not at every event of the game.
+    events, which = np.unique(i[known], return_inverse=True)
+    idle = np.maximum(0, _count(table.at(stat_loops[events]), player_id, WORKERS)
+                      - at_event["m_scoreValueWorkersActiveCount"][events])
     column = {name: at_event[name][i[known]] for name in (
         "m_scoreValueWorkersActiveCount", "m_scoreValueFoodUsed", "m_scoreValueFoodMade",
         "m_scoreValueMineralsCurrent", "m_scoreValueVespeneCurrent")}
@@ -263,7 +265,7 @@ def player_vectors(table: UnitTable, at: UnitsAt, loops: np.ndarray,
             Player.food_cap: column["m_scoreValueFoodMade"] // 4096,
             Player.food_workers: workers,
             Player.food_army: np.maximum(0, food_used - workers),
-            Player.idle_worker_count: idle[i[known]]}
+            Player.idle_worker_count: idle[which]}
     for field, value in rows.items():
         out[known, field] = value
     return out

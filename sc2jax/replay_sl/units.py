@@ -124,10 +124,10 @@ def _changed(first: np.ndarray, changes: np.ndarray, loops: np.ndarray) -> np.nd
     the first of `loops` at or after its game loop; later changes win."""
     out = np.repeat(first[None, :], len(loops), axis=0)
     starts = np.searchsorted(loops, changes[:, 0], side="left")
-    for start, row, value in zip(starts.tolist(), changes[:, 1].tolist(),
-                                 changes[:, 2].tolist()):
-        if start < len(loops):
-            out[start:, row] = value
+    due = starts < len(loops)  # Changes after the last loop change nothing.
+    for start, row, value in zip(starts[due].tolist(), changes[due, 1].tolist(),
+                                 changes[due, 2].tolist()):
+        out[start:, row] = value
     return out
 
 
