@@ -2,6 +2,15 @@
 
 from __future__ import annotations
 
+import os
+
+
+def check_not_a_file(name: str, path) -> None:
+    """Raises ValueError naming `name` if `path` is an existing file: a run directory
+    must be a directory, new or a run's."""
+    if path and os.path.exists(path) and not os.path.isdir(path):
+        raise ValueError(f"{name}={str(path)!r} is a file; give a directory (new or a run's)")
+
 
 def check_positive_int(name: str, value: object) -> None:
     """Raises ValueError naming `name` unless `value` is an int >= 1 (bools are not)."""

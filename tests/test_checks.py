@@ -33,3 +33,14 @@ def test_check_known_names_the_unknown_value_and_what_is_allowed():
     check_known("map", ["b", "a"], {"a", "b"})
     with pytest.raises(ValueError, match=r"unknown map 'c'; allowed: \['a', 'b'\]"):
         check_known("map", ["a", "c"], {"b", "a"})
+
+
+def test_check_not_a_file(tmp_path):
+    from sc2jax.checks import check_not_a_file
+
+    check_not_a_file("--run_dir", tmp_path)  # a directory
+    check_not_a_file("--run_dir", tmp_path / "new")  # not there yet
+    check_not_a_file("--run_dir", None)
+    (tmp_path / "f").write_text("")
+    with pytest.raises(ValueError, match=r"--run_dir='.*f' is a file; give a directory"):
+        check_not_a_file("--run_dir", tmp_path / "f")

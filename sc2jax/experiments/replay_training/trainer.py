@@ -27,6 +27,7 @@ import time
 import jax
 
 from sc2jax.atomic import atomic_write, write_json_atomic
+from sc2jax.checks import check_not_a_file
 from sc2jax.environment.interface.specs import ObservationFormat
 from sc2jax.experiments.replay_training.config import ReplayTrainConfig
 from sc2jax.experiments.replay_training.evaluation import (
@@ -54,8 +55,7 @@ TEST_METRICS = ("action_top1", "action_top5", "screen_top1", "screen_top5", "min
 
 
 def _check_run_dir(run_dir: str, config: ReplayTrainConfig) -> None:
-    if os.path.exists(run_dir) and not os.path.isdir(run_dir):
-        raise ValueError(f"run_dir {run_dir!r} is a file; give a directory (new or a run's)")
+    check_not_a_file("run_dir", run_dir)
     path = os.path.join(run_dir, "config.json")
     if not os.path.exists(path):
         return

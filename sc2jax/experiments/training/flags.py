@@ -15,6 +15,7 @@ import tempfile
 import jax
 from absl import flags
 
+from sc2jax.checks import check_not_a_file
 from sc2jax.environment.interface.map_names import MINI_GAMES
 from sc2jax.experiments.training.config import BACKENDS, TrainConfig, parse_names
 from sc2jax.experiments.training.presets import PRESETS, get_preset
@@ -154,9 +155,7 @@ def config_from_flags() -> TrainConfig:
     base = get_preset(FLAGS.preset).config if FLAGS.preset else _DEFAULTS
     changes = {_TABLE[name][0]: field_value(name) for name in _TABLE
                if _TABLE[name][0] and (FLAGS[name].present or not FLAGS.preset)}
-    run_dir = FLAGS["run_dir"].value if "run_dir" in FLAGS else None
-    if run_dir and os.path.exists(run_dir) and not os.path.isdir(run_dir):
-        raise ValueError(f"--run_dir={run_dir!r} is a file; give a directory (new or a run's)")
+    check_not_a_file("--run_dir", FLAGS["run_dir"].value if "run_dir" in FLAGS else None)
     return dataclasses.replace(base, **changes)
 
 
