@@ -7,9 +7,11 @@ r"""Evaluates an agent on a mini-game of the embedded simulator, or on StarCraft
         --num_envs=4
 
 The agent is random, scripted, or (with `--run_dir`) a trained network restored from
-a training run's last checkpoint (or `--checkpoint_step`), on the run's own map and
-observation format. With `--backend=sc2` the episodes are played in `--num_envs` game
-processes launched from `--sc2path`, each playing its share of the episodes in turn.
+a training run's last checkpoint (or `--checkpoint_step`): an A3C run plays its own map
+and observation format; a replay run (`train_replays`) plays `--map` with every
+function, at its dataset's resolutions and step_mul. With `--backend=sc2` the episodes
+are played in `--num_envs` game processes launched from `--sc2path`, each playing its
+share of the episodes in turn.
 
 Prints the mean, std and max episode score beside the paper's Table 1, and with
 `--output` writes them as JSON: `episodes`, `mean`, `std`, `max`, `min`, `scores` (every
@@ -31,7 +33,7 @@ from sc2jax.environment.agents import required_format
 from sc2jax.environment.interface.specs import ObservationFormat
 from sc2jax.environment.sc2api.game_env import GameEnvBatch
 from sc2jax.experiments.reporting.paper import paper_rows
-from sc2jax.experiments.training import evaluation, trainer
+from sc2jax.experiments.training import evaluation, pretrained, trainer
 from sc2jax.experiments.training import flags as training_flags
 from sc2jax.experiments.training.actor import actor_core
 from sc2jax.experiments.training.config import BACKENDS
@@ -43,7 +45,9 @@ _AGENT = flags.DEFINE_string("agent", "random", f"Agent: one of {list(evaluation
 _EPISODES = flags.DEFINE_integer("episodes", 100, "Episodes to run.")
 _OUTPUT = flags.DEFINE_string("output", None, "Write the results as JSON to this file.")
 _RUN_DIR = flags.DEFINE_string("run_dir", None, "Evaluate the network trained in this run "
-                               "directory (its map and format; --agent is ignored).")
+                               "directory (--agent is ignored): an A3C run on its own map "
+                               "and format, or a replay run (train_replays) on --map with "
+                               "its dataset's resolutions and step_mul.")
 _STEP = flags.DEFINE_integer("checkpoint_step", None, "The run's checkpoint (default: last).")
 _BEST = flags.DEFINE_bool("best", False, "Evaluate the run's best parameters (RUN_DIR/best: "
                           "those of its best recent training score, or of its best "
@@ -65,9 +69,10 @@ def check_flags() -> None:
     for flag in (_EPISODES, _NUM_ENVS, _STEP_MUL):
         if flag.value < 1:
             raise ValueError(f"--{flag.name} must be >= 1, got {flag.value}")
-    if _BEST.value and (not _RUN_DIR.value or _STEP.value is not None):
-        raise ValueError("--best evaluates a run's best parameters: it needs --run_dir and "
-                         "takes no --checkpoint_step")
+    if _BEST.value and (not _RUN_DIR.value or _STEP.value is not None
+                        or pretrained.is_replay_run(_RUN_DIR.value)):
+        raise ValueError("--best evaluates an A3C run's best parameters: it needs --run_dir "
+                         "of such a run and takes no --checkpoint_step")
     if not _TEMPERATURE.value > 0:
         raise ValueError(f"--temperature must be > 0, got {_TEMPERATURE.value}")
     ObservationFormat(screen_size=_SCREEN.value, minimap_size=_MINIMAP.value)  # The sizes.
@@ -84,7 +89,29 @@ def main(argv) -> None:
         sys.exit(f"error: {error}")
     start = time.time()
     on_game = _BACKEND.value == "sc2"
-    if _RUN_DIR.value:
+    if _RUN_DIR.value and pretrained.is_replay_run(_RUN_DIR.value):
+        if on_game:
+            sys.exit("error: a replay run is evaluated on the simulator's mini-games only "
+                     "(--backend=simulator)")
+        try:
+            replay_run = pretrained.load_replay_run(_RUN_DIR.value, _STEP.value)
+        except (FileNotFoundError, ValueError) as error:
+            sys.exit(f"error: {error}")
+        agent_name, map_name = f"{replay_run.agent} (replays)", _MAP.value
+        fmt = replay_run.fmt
+        resolved = dict(agent=replay_run.agent, screen_size=fmt.screen_size[0],
+                        minimap_size=fmt.minimap_size[0], step_mul=replay_run.step_mul,
+                        replay_updates=replay_run.update)
+        core = actor_core(replay_run.network, _TEMPERATURE.value)
+        print(f"Restored {replay_run.agent} after {replay_run.update} updates on replays "
+              f"from {_RUN_DIR.value}")
+        sim = make(map_name, fmt.screen_size, fmt.minimap_size, replay_run.step_mul).simulator
+
+        def run(on_batch):
+            return evaluation.run_core_episodes(sim, core, replay_run.params,
+                                                _EPISODES.value, _NUM_ENVS.value,
+                                                _SEED.value, on_batch)
+    elif _RUN_DIR.value:
         try:
             trained, params, meta = trainer.load_run(_RUN_DIR.value, _STEP.value, _BEST.value)
         except (FileNotFoundError, ValueError) as error:

@@ -182,8 +182,6 @@ def convert_replay(path: str | os.PathLike, output: str | os.PathLike,
     Raises:
       ReplayError: for a replay that cannot be read (no shard is written).
     """
-    from array_record.python.array_record_module import ArrayRecordWriter
-
     data = pathlib.Path(path).read_bytes()
     sha1 = hashlib.sha1(data).hexdigest()
     split = split_of(sha1)
@@ -191,12 +189,25 @@ def convert_replay(path: str | os.PathLike, output: str | os.PathLike,
     info = {"replay": str(path), "sha1": sha1, "split": split, "shard": str(shard)}
     if shard.exists():
         return {**info, "records": None, "skipped": True}
+    count = write_shard(shard, replay_records(path, settings), schema(settings))
+    return {**info, "records": count, "skipped": False}
+
+
+def write_shard(shard: pathlib.Path, records, fields: dict) -> int:
+    """Writes `records` (dicts of `schema`'s fields) as the ArrayRecord file `shard`,
+    atomically: to a temporary file, renamed into place once whole.
+
+    Returns:
+      The number of records.
+    """
+    from array_record.python.array_record_module import ArrayRecordWriter
+
     shard.parent.mkdir(parents=True, exist_ok=True)
     temporary = shard.with_name(f".{shard.name}.{os.getpid()}.tmp")
     writer = ArrayRecordWriter(str(temporary), WRITER_OPTIONS)
-    fields, count = schema(settings), 0
+    count = 0
     try:
-        for record in replay_records(path, settings):
+        for record in records:
             writer.write(encode(record, fields))
             count += 1
         writer.close()
@@ -205,7 +216,7 @@ def convert_replay(path: str | os.PathLike, output: str | os.PathLike,
         writer.close()
         temporary.unlink(missing_ok=True)
         raise
-    return {**info, "records": count, "skipped": False}
+    return count
 
 
 def _convert_one(args) -> dict:

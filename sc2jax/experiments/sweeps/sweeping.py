@@ -48,6 +48,9 @@ from sc2jax.experiments.training.trainer import (
     build,
     check_run_dir,
     evaluate_params,
+    has_checkpoint,
+    start_params,
+    with_params,
 )
 
 
@@ -98,10 +101,11 @@ def run_sweep(config: TrainConfig, learning_rates, sweep_dir: str, *,
                          f"{learning_rates!r}")
     start = time.time()
     num_runs = int(rates.size)
-    os.makedirs(sweep_dir, exist_ok=True)
     check_run_dir(sweep_dir, config)
-    write_json_atomic(os.path.join(sweep_dir, "config.json"), config.to_json())
     agent = build(config)
+    initial = None if has_checkpoint(sweep_dir) else start_params(agent)
+    os.makedirs(sweep_dir, exist_ok=True)
+    write_json_atomic(os.path.join(sweep_dir, "config.json"), config.to_json())
     keys = jax.vmap(jax.random.PRNGKey)(config.seed + jnp.arange(num_runs))
     state = placed_as_restored(jax.vmap(agent.initial_state)(keys, jnp.asarray(rates)))
     update, env_steps = 0, 0
@@ -110,6 +114,10 @@ def run_sweep(config: TrainConfig, learning_rates, sweep_dir: str, *,
         state, meta = checkpointer.restore(state)
         update, env_steps = meta["update"], meta["env_steps"]
         log(f"Resumed the sweep from update {update}")
+    elif initial is not None:
+        state = with_params(state, jax.tree.map(
+            lambda p, x: jnp.broadcast_to(p, x.shape), initial, state.learner.params))
+        log(f"Every run starts from the parameters of {config.init_from}")
     kept = _BestParams(agent, os.path.join(sweep_dir, "best"), state.learner.params)
     curves = CsvLog(os.path.join(sweep_dir, "curves.csv"), ("run", "step", "score", "max"),
                     resume_step=env_steps if update else None)

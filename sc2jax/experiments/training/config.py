@@ -68,6 +68,9 @@ class TrainConfig:
         it evaluates the current parameters for `best_eval_episodes` fresh episodes,
         always with the same seed, and keeps the best of those (simulator only).
       best_eval_episodes: episodes of each of those evaluations.
+      init_from: a run directory whose last parameters start this run instead of fresh
+        ones: an A3C run, or a replay run (`train_replays`), of the same network,
+        resolutions and layers. Read once, when the run starts (not on resuming).
     """
 
     map_name: str = "MoveToBeacon"
@@ -99,6 +102,7 @@ class TrainConfig:
     eval_episodes: int = 100
     best_eval_interval: int = 0
     best_eval_episodes: int = 20
+    init_from: str | None = None
 
     def __post_init__(self):
         if self.backend not in BACKENDS:
@@ -150,6 +154,10 @@ class TrainConfig:
             raise ValueError(f"best_eval_interval={self.best_eval_interval!r} needs backend "
                              f"'simulator' (on {self.backend!r} the evaluation would take "
                              f"the training games); use 0 there")
+        if self.init_from is not None and (not isinstance(self.init_from, str)
+                                           or not self.init_from):
+            raise ValueError(f"init_from must be a run directory or None, got "
+                             f"{self.init_from!r}")
         self.observation_format()  # checks the resolutions and layer names
         function_mask(self.functions)  # checks the action set
 

@@ -100,6 +100,9 @@ _TABLE = {
         "mean of the last 100 training episodes."),
     "best_eval_episodes": ("best_eval_episodes", flags.DEFINE_integer,
                            "Episodes of each of those evaluations."),
+    "init_from": ("init_from", flags.DEFINE_string, "Start from the last parameters of this "
+                  "run directory: an A3C run, or a replay run (train_replays), of the same "
+                  "agent, resolutions and layers."),
     "sc2path": (None, flags.DEFINE_string, "The game's install (default $SC2PATH)."),
 }
 _NAMES = ("screen_features", "minimap_features", "functions", "bot")  # Lists in one string.

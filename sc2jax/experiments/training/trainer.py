@@ -40,6 +40,7 @@ from typing import Any
 
 import dm_env
 import jax
+import jax.numpy as jnp
 import numpy as np
 
 from sc2jax.atomic import write_json_atomic
@@ -51,7 +52,7 @@ from sc2jax.environment.sc2api.game_env import GameEnvBatch
 from sc2jax.experiments.reporting.metrics_log import CsvLog, Progress, read_csv
 from sc2jax.experiments.reporting.plots import plot_learning_curves
 from sc2jax.experiments.reporting.tensorboard import SummaryWriter
-from sc2jax.experiments.training import evaluation
+from sc2jax.experiments.training import evaluation, pretrained
 from sc2jax.experiments.training.actor import ActorCore, actor_core, make_unroll
 from sc2jax.experiments.training.checkpoints import (
     Checkpointer,
@@ -140,7 +141,7 @@ class Agent:
 
 
 RUN_ONLY_FIELDS = ("seed", "learning_rate", "checkpoint_interval_s", "eval_episodes",
-                   "best_eval_interval", "best_eval_episodes")
+                   "best_eval_interval", "best_eval_episodes", "init_from")
 """The config fields that no built part or compiled program depends on (the learning
 rate is part of the learner's state; the others are read by the run's loop)."""
 
@@ -294,10 +295,11 @@ def train(config: TrainConfig, run_dir: str, *, log: Callable[[str], None] = pri
       ValueError: if `run_dir` holds a run with a different config.
     """
     start = time.time()
-    os.makedirs(run_dir, exist_ok=True)
     check_run_dir(run_dir, config)
-    write_json_atomic(os.path.join(run_dir, "config.json"), config.to_json())
     agent = build(config)
+    initial = None if has_checkpoint(run_dir) else start_params(agent)
+    os.makedirs(run_dir, exist_ok=True)
+    write_json_atomic(os.path.join(run_dir, "config.json"), config.to_json())
     state = placed_as_restored(agent.initial(jax.random.PRNGKey(config.seed)))
     checkpointer = Checkpointer(os.path.join(run_dir, "checkpoints"))
     update, env_steps = 0, 0
@@ -305,6 +307,9 @@ def train(config: TrainConfig, run_dir: str, *, log: Callable[[str], None] = pri
         state, meta = checkpointer.restore(state)
         update, env_steps = meta["update"], meta["env_steps"]
         log(f"Resumed from update {update} ({env_steps} agent steps)")
+    elif initial is not None:
+        state = with_params(state, initial)
+        log(f"Starting from the parameters of {config.init_from}")
     # The best parameters so far, (metadata, params), and whether they await a save;
     # their directory is made at the first save.
     best_dir = os.path.join(run_dir, "best")
@@ -464,6 +469,46 @@ def _best_candidate_score(agent: Agent, state: Any, update: int,
 def _params(state) -> Any:
     """The network parameters of what a run checkpoints (`Agent.initial`)."""
     return state.params if isinstance(state, LearnerState) else state.learner.params
+
+
+def with_params(state, params) -> Any:
+    """What a run checkpoints (`Agent.initial`), with other network parameters."""
+    if isinstance(state, LearnerState):
+        return state.replace(params=params)
+    return state.replace(learner=state.learner.replace(params=params))
+
+
+def has_checkpoint(run_dir: str) -> bool:
+    """Whether `run_dir` holds a checkpoint to resume from."""
+    directory = os.path.join(run_dir, "checkpoints")
+    if not os.path.isdir(directory):
+        return False
+    with Checkpointer(directory) as checkpointer:
+        return checkpointer.latest_step() is not None
+
+
+def start_params(agent: Agent) -> Any:
+    """The parameters a fresh run of `agent` starts from instead of new ones: those of
+    its config's `init_from` run (an A3C run's last checkpoint, or a replay run's); None
+    without one. Read before anything is compiled.
+
+    Raises:
+      ValueError: if init_from is not a run directory or has no checkpoint, or its
+        network differs from `agent`'s in a shape or a parameter.
+    """
+    source = agent.config.init_from
+    if source is None:
+        return None
+    try:
+        if pretrained.is_replay_run(source):
+            params = pretrained.load_replay_run(source).params
+        else:
+            params = load_run(source)[1]
+    except FileNotFoundError as error:
+        raise ValueError(f"init_from={source!r} cannot start this run: {error}") from None
+    like = _params(jax.eval_shape(lambda: agent.initial(jax.random.PRNGKey(0))))
+    pretrained.check_same_shapes(params, like, source)
+    return jax.tree.map(lambda p, x: jnp.asarray(p, x.dtype), params, like)
 
 
 def _plot(run_dir: str, config: TrainConfig) -> None:
