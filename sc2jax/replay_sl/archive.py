@@ -94,13 +94,7 @@ class Replay:
     def __init__(self, path: str | os.PathLike):
         self._decoded: dict[str, list[dict]] = {}
         self.path = str(path)
-        try:
-            self._archive = mpyq.MPQArchive(self.path)
-            header = protocol_module(protocol_builds()[-1]).decode_replay_header(
-                self._archive.header["user_data_header"]["content"])
-        except Exception as error:  # mpyq and s2protocol raise many kinds on bad bytes.
-            raise ReplayError(self.path, f"not a readable replay archive "
-                                         f"({type(error).__name__}: {error})") from None
+        self._archive, header = _read_header(self.path)
         v = header["m_version"]
         self.base_build = int(v["m_baseBuild"])
         self.version = f"{v['m_major']}.{v['m_minor']}.{v['m_revision']}.{v['m_build']}"
@@ -162,6 +156,26 @@ class Replay:
                                          f"{self.protocol_build} (none for {self.base_build}), "
                                          f"its last game event is at loop {loop}, not at the "
                                          f"header's {self.game_loops}")
+
+
+def _read_header(path: str) -> tuple[mpyq.MPQArchive, dict]:
+    """A replay's archive and its decoded header (which every build's protocol reads)."""
+    try:
+        archive = mpyq.MPQArchive(path)
+        return archive, protocol_module(protocol_builds()[-1]).decode_replay_header(
+            archive.header["user_data_header"]["content"])
+    except Exception as error:  # mpyq and s2protocol raise many kinds on bad bytes.
+        raise ReplayError(path, f"not a readable replay archive "
+                                f"({type(error).__name__}: {error})") from None
+
+
+def base_build(path: str | os.PathLike) -> int:
+    """The base build of the game that wrote a replay, from its header alone.
+
+    Raises:
+      ReplayError: for a file that is not a readable replay archive.
+    """
+    return int(_read_header(str(path))[1]["m_version"]["m_baseBuild"])
 
 
 def open_replay(path: str | os.PathLike) -> Replay:

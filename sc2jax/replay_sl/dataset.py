@@ -173,8 +173,9 @@ def replay_records(path: str | os.PathLike, settings: Settings) -> Iterator[dict
 
 
 def convert_replay(path: str | os.PathLike, output: str | os.PathLike,
-                   settings: Settings) -> dict:
-    """Converts one replay into its shard under `output/<split>/`, unless it is there.
+                   settings: Settings, records=replay_records) -> dict:
+    """Converts one replay into its shard under `output/<split>/`, unless it is there:
+    the records of `records(path, settings)` (default: decoded without the game).
 
     Returns:
       {"replay", "sha1", "split", "shard", "records", "skipped": bool}.
@@ -189,7 +190,7 @@ def convert_replay(path: str | os.PathLike, output: str | os.PathLike,
     info = {"replay": str(path), "sha1": sha1, "split": split, "shard": str(shard)}
     if shard.exists():
         return {**info, "records": None, "skipped": True}
-    count = write_shard(shard, replay_records(path, settings), schema(settings))
+    count = write_shard(shard, records(path, settings), schema(settings))
     return {**info, "records": count, "skipped": False}
 
 
@@ -220,9 +221,9 @@ def write_shard(shard: pathlib.Path, records, fields: dict) -> int:
 
 
 def _convert_one(args) -> dict:
-    path, output, settings = args
+    path, output, settings, records = args
     try:
-        return convert_replay(path, output, settings)
+        return convert_replay(path, output, settings, records)
     except ReplayError as error:
         return {"replay": str(path), "error": error.reason}
     except OSError as error:  # A file that cannot be read: skipped, as a bad replay is.
@@ -230,8 +231,9 @@ def _convert_one(args) -> dict:
 
 
 def convert_replays(paths: list[str], output: str | os.PathLike, settings: Settings, *,
-                    processes: int = 1, log=print) -> dict:
+                    processes: int = 1, log=print, records=replay_records) -> dict:
     """Converts replays in parallel; a replay that cannot be read is skipped and counted.
+    `records` is `convert_replay`'s (with several processes, a picklable function).
 
     Writes `output/conversion.json` (the settings, and each replay's shard or the reason
     it has none) after every replay, atomically.
@@ -251,7 +253,7 @@ def convert_replays(paths: list[str], output: str | os.PathLike, settings: Setti
     output.mkdir(parents=True, exist_ok=True)
     summary = {"format": FORMAT, "settings": dataclasses.asdict(settings), "replays": [],
                "failed": []}
-    jobs = [(p, str(output), settings) for p in paths]
+    jobs = [(p, str(output), settings, records) for p in paths]
 
     def record(done: int, result: dict) -> None:
         (summary["failed"] if "error" in result else summary["replays"]).append(result)

@@ -197,8 +197,9 @@ class Controller:
         return self.request("save_replay", sc2api.RequestSaveReplay()).data
 
     def start_replay(self, replay_path: str = "", replay_data: bytes = b"", options=None,
-                     observed_player_id: int = 1):
-        start = sc2api.RequestStartReplay(observed_player_id=observed_player_id)
+                     observed_player_id: int = 1, disable_fog: bool = False):
+        start = sc2api.RequestStartReplay(observed_player_id=observed_player_id,
+                                          disable_fog=disable_fog)
         if replay_data:
             start.replay_data = replay_data
         else:

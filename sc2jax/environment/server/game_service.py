@@ -5,11 +5,19 @@
 is the real game's (reference/pysc2_facts.md §6):
 
     ping → create_game (the mini-game by map name, one Participant) → join_game (the
-    feature-layer resolutions) → [action → step → observation]* → restart_game → ...
-    → leave_game → quit
+    feature-layer resolutions) → [action → step → observation]* → save_replay →
+    restart_game → ... → leave_game → quit
+    ping → replay_info → start_replay → [step → observation]* → leave_game → ...
 
 Status goes launched → init_game → in_game → ended (when the episode ends; the
-observation then carries a `player_result`) → launched (after leave) → quit.
+observation then carries a `player_result`) → launched (after leave) → quit; a replay
+goes launched → in_replay → ended → launched.
+
+A replay (`save_replay`) is the episode's key and the calls applied at each step
+(`replays.py`); `start_replay` plays it again through the same compiled programs, so its
+observations are the game's bit for bit, and each observation's `actions` are the calls
+the player made in the step before it, with their arguments, as the real game reports a
+replay's actions.
 
 A step runs exactly as `Simulator.step` does for the same actions and keys, so a client
 sees the in-process simulator's episodes bit for bit: `random_seed` seeds the episode
@@ -24,6 +32,7 @@ import logging
 import pathlib
 
 import jax
+import jax.numpy as jnp
 import numpy as np
 
 from sc2jax.environment.engine.compiled import compiled, simulator
@@ -39,6 +48,7 @@ from sc2jax.environment.interface.observation_tables import TERRAN
 from sc2jax.environment.sc2api import proto_actions, proto_observation
 from sc2jax.environment.sc2api.controller import RequestError
 from sc2jax.environment.sc2api.protos import sc2api
+from sc2jax.environment.server.replays import Replay
 
 GAME_VERSION = "4.10.0"
 BASE_BUILD = 75689
@@ -59,7 +69,8 @@ SC2_NAMES = {
 """The game's names of the simulator's unit types (`data` replies)."""
 
 SUPPORTED = ("ping", "create_game", "join_game", "restart_game", "leave_game", "quit",
-             "game_info", "data", "action", "step", "observation")
+             "game_info", "data", "action", "step", "observation", "save_replay",
+             "replay_info", "start_replay")
 """The requests the simulator answers; the others get `Response.error`."""
 
 log = logging.getLogger(__name__)
@@ -90,6 +101,13 @@ class GameService:
         self._state = None
         self._last_observation = None
         self._pending: list[FunctionCall] = []
+        self._episode_key = None
+        self._steps: list[tuple[int, list[FunctionCall]]] = []
+        """The episode's steps so far: (game loops, the calls applied)."""
+        self._replay: Replay | None = None
+        self._replay_next = 0
+        self._replayed: list[FunctionCall] = []
+        """In a replay: the calls of the steps since the last observation."""
 
     # Dispatch.
 
@@ -193,8 +211,8 @@ class GameService:
 
     def _leave_game(self, request, response) -> None:
         del request, response
-        self._require("leave_game", _STATUS.in_game, _STATUS.ended)
-        self._state, self.status = None, _STATUS.launched
+        self._require("leave_game", _STATUS.in_game, _STATUS.in_replay, _STATUS.ended)
+        self._state, self._replay, self.status = None, None, _STATUS.launched
 
     def _quit(self, request, response) -> None:
         del request, response
@@ -202,7 +220,7 @@ class GameService:
 
     def _game_info(self, request, response) -> None:
         del request
-        self._require("game_info", _STATUS.in_game, _STATUS.ended)
+        self._require("game_info", _STATUS.in_game, _STATUS.in_replay, _STATUS.ended)
         info = response.game_info
         info.map_name, info.local_map_path = self._map_name, self._map_path
         info.player_info.add(player_id=1, type=sc2api.PlayerType.Value("Participant"),
@@ -221,7 +239,7 @@ class GameService:
         info.options.CopyFrom(self._options)
 
     def _data(self, request, response) -> None:
-        self._require("data", _STATUS.in_game, _STATUS.ended)
+        self._require("data", _STATUS.in_game, _STATUS.in_replay, _STATUS.ended)
         if not request.unit_type_id:
             return
         d = UNIT_DATA
@@ -251,32 +269,53 @@ class GameService:
             response.action.result.append(code)
 
     def _step(self, request, response) -> None:
-        self._require("step", _STATUS.in_game, _STATUS.ended)
+        self._require("step", _STATUS.in_game, _STATUS.in_replay, _STATUS.ended)
         count = request.count if request.HasField("count") else 1
         if not 1 <= count <= MAX_STEP_COUNT:
             raise RequestError("step", [f"step count {count} is outside 1..{MAX_STEP_COUNT}"])
         if self.status == _STATUS.in_game:
-            calls = self._pending or [FunctionCall(FUNCTIONS.no_op.id, [])]
+            self._steps.append((count, self._pending))
+            self._play(count, self._pending)
             self._pending = []
-            sim = self._simulator(count)
-            for call in calls[:-1]:
-                self._state = _act(sim)(self._state, to_dense(call, self._fmt.types))
-            # While the game runs, `Simulator.step` is `advance` then `observe`: the
-            # program `SC2Env` compiles for the same format, shared with it.
-            self._state, timestep = compiled(sim, False)[1](
-                self._state, to_dense(calls[-1], self._fmt.types), _PARAMS)
-            self._last_observation = timestep.observation
-            if int(self._state.outcome) != Outcome.RUNNING:
+        elif self.status == _STATUS.in_replay:
+            # Whole recorded steps, until `count` loops have passed or the replay ends.
+            target = int(self._state.game_loop) + count
+            steps = self._replay.steps
+            while self._replay_next < len(steps) and int(self._state.game_loop) < target:
+                loops, calls = steps[self._replay_next]
+                self._replay_next += 1
+                self._play(loops, calls)
+                self._replayed.extend(calls)
+            if self._replay_next == len(steps):
                 self.status = _STATUS.ended
         response.step.simulation_loop = int(self._state.game_loop)
 
+    def _play(self, count: int, calls: list[FunctionCall]) -> None:
+        """Applies `calls` (none: no_op) and runs `count` game loops."""
+        calls = calls or [FunctionCall(FUNCTIONS.no_op.id, [])]
+        sim = self._simulator(count)
+        for call in calls[:-1]:
+            self._state = _act(sim)(self._state, to_dense(call, self._fmt.types))
+        # While the game runs, `Simulator.step` is `advance` then `observe`: the
+        # program `SC2Env` compiles for the same format, shared with it.
+        self._state, timestep = compiled(sim, False)[1](
+            self._state, to_dense(calls[-1], self._fmt.types), _PARAMS)
+        self._last_observation = timestep.observation
+        if int(self._state.outcome) != Outcome.RUNNING:
+            self.status = _STATUS.ended
+
     def _observation(self, request, response) -> None:
         del request
-        self._require("observation", _STATUS.in_game, _STATUS.ended)
+        self._require("observation", _STATUS.in_game, _STATUS.in_replay, _STATUS.ended)
         obs = jax.device_get(self._last_observation)
         outcome = int(self._state.outcome)
         result = None if outcome == Outcome.RUNNING else outcome  # Result values match.
         response.observation.CopyFrom(proto_observation.encode(obs, self._fmt, result=result))
+        if self._replay is not None:
+            del response.observation.actions[:]
+            response.observation.actions.extend(
+                proto_actions.to_proto(call) for call in self._replayed)
+            self._replayed = []
         raw_data = response.observation.observation.raw_data
         raw_data.player.camera.x = float(self._state.camera[0])
         raw_data.player.camera.y = float(self._state.camera[1])
@@ -292,7 +331,95 @@ class GameService:
     def _start(self) -> None:
         """Starts an episode with the next key, as `SC2Env.reset` does."""
         self._seed_key, key = jax.random.split(self._seed_key)
+        self._reset(key)
+        self.status = _STATUS.in_game
+
+    def _reset(self, key) -> None:
+        self._episode_key = key
         self._state, timestep = compiled(self._simulator(RESET_STEP_MUL), False)[0](key, _PARAMS)
         self._last_observation = timestep.observation
-        self._pending = []
-        self.status = _STATUS.in_game
+        self._pending, self._steps = [], []
+
+    # Replays.
+
+    def _save_replay(self, request, response) -> None:
+        del request
+        self._require("save_replay", _STATUS.in_game, _STATUS.ended)
+        if self._replay is not None:
+            raise RequestError("save_replay", ["a replay being watched cannot be saved"])
+        outcome = int(self._state.outcome)
+        response.save_replay.data = Replay(
+            self._map_name, self._map_path, np.asarray(self._episode_key).tolist(),
+            tuple(self._fmt.screen_size), tuple(self._fmt.minimap_size),
+            [(count, list(calls)) for count, calls in self._steps],
+            None if outcome == Outcome.RUNNING else outcome).to_bytes()
+
+    def _read_replay(self, kind: str, request, error) -> Replay | None:
+        """The replay of a `replay_info` or `start_replay` request; None (with `error`
+        set) if there is none or it does not parse."""
+        try:
+            if request.HasField("replay_data"):
+                data = request.replay_data
+            elif request.replay_path:
+                data = pathlib.Path(request.replay_path).read_bytes()
+            else:
+                error.error = error.Error.Value("MissingReplay")
+                error.error_details = f"{kind} needs replay_path or replay_data"
+                return None
+        except OSError as e:
+            error.error = error.Error.Value("InvalidReplayPath")
+            error.error_details = f"cannot read {request.replay_path!r}: {e}"
+            return None
+        try:
+            return Replay.from_bytes(data)
+        except ValueError as e:
+            error.error = error.Error.Value("InvalidReplayData")
+            error.error_details = str(e)
+            return None
+
+    def _replay_info(self, request, response) -> None:
+        replay = self._read_replay("replay_info", request, response.replay_info)
+        if replay is None:
+            return
+        info = response.replay_info
+        info.map_name, info.local_map_path = replay.map_name, replay.map_path
+        player = info.player_info.add()
+        player.player_info.player_id = 1
+        player.player_info.type = sc2api.PlayerType.Value("Participant")
+        player.player_info.race_requested = player.player_info.race_actual = TERRAN
+        if replay.result is not None:
+            player.player_result.player_id, player.player_result.result = 1, replay.result
+        info.game_duration_loops = replay.game_loops
+        info.game_duration_seconds = replay.game_loops / 22.4
+        info.game_version, info.base_build = GAME_VERSION, BASE_BUILD
+        info.data_build = BASE_BUILD
+
+    def _start_replay(self, request, response) -> None:
+        self._require("start_replay", _STATUS.launched)
+        error = response.start_replay
+        replay = self._read_replay("start_replay", request, error)
+        if replay is None:
+            return
+        if request.observed_player_id not in (0, 1):
+            error.error = error.Error.Value("InvalidObservedPlayerId")
+            error.error_details = (f"observed_player_id {request.observed_player_id}: the "
+                                   f"mini-games have one player, 1")
+            return
+        layers = request.options.feature_layer
+        sizes = ((layers.resolution.x, layers.resolution.y),
+                 (layers.minimap_resolution.x, layers.minimap_resolution.y))
+        if not request.options.HasField("feature_layer") or sizes != (replay.screen_size,
+                                                                         replay.minimap_size):
+            error.error = error.Error.Value("MissingOptions")
+            error.error_details = (f"the replay plays back with options.feature_layer at its "
+                                   f"recorded resolutions, screen {replay.screen_size} and "
+                                   f"minimap {replay.minimap_size}; got {sizes}")
+            return
+        self._map_name, self._map_path, self._options = (replay.map_name, replay.map_path,
+                                                         request.options)
+        self._fmt = specs.ObservationFormat(
+            screen_size=replay.screen_size, minimap_size=replay.minimap_size,
+            use_feature_units=request.options.raw, use_raw_units=request.options.raw)
+        self._reset(jnp.asarray(replay.key, jnp.uint32))
+        self._replay, self._replay_next, self._replayed = replay, 0, []
+        self.status = _STATUS.in_replay

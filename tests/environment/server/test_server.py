@@ -13,7 +13,8 @@ import websocket
 from websockets.sync.server import serve
 
 from sc2jax.environment import make
-from sc2jax.environment.interface.functions import FUNCTIONS
+from sc2jax.environment.interface.functions import FUNCTIONS, FunctionCall
+from sc2jax.environment.sc2api import proto_actions
 from sc2jax.environment.sc2api.controller import Controller, RequestError
 from sc2jax.environment.sc2api.game_env import Bot, GameEnv
 from sc2jax.environment.sc2api.launcher import launch, sc2path
@@ -28,7 +29,7 @@ SIZES = dict(screen_size=16, minimap_size=16)
 def test_requests_out_of_order_and_bad_setups_get_errors(server):
     controller = Controller.connect("127.0.0.1", server.port)
     try:
-        with pytest.raises(RequestError, match="step needs status in_game, ended; the "
+        with pytest.raises(RequestError, match="step needs status in_game, in_replay, ended; the "
                                                "status is launched"):
             controller.step(8)
         with pytest.raises(RequestError, match="InvalidMapPath.*'Simple64' is not a mini-game"):
@@ -61,10 +62,61 @@ def test_requests_out_of_order_and_bad_setups_get_errors(server):
         assert {u.name for u in controller.data().units} >= {"Marine", "Beacon_Terran"}
         with pytest.raises(RequestError, match="step count 0 is outside"):
             controller.step(0)
-        with pytest.raises(RequestError, match="save_replay.*not supported"):
-            controller.save_replay()
+        with pytest.raises(RequestError, match="start_replay needs status launched"):
+            controller.start_replay(replay_data=controller.save_replay(), options=options)
         controller.leave()
+        for data, message in ((b"MPQ\x1b...", "InvalidReplayData.*StarCraft II replay"),
+                              (b'{"sc2jax_replay": 1, "key"}', "damaged simulator replay")):
+            with pytest.raises(RequestError, match=message):
+                controller.replay_info(replay_data=data)
+        with pytest.raises(RequestError, match="MissingReplay"):
+            controller.start_replay()
         assert controller.status == sc2api.Status.Value("launched")
+    finally:
+        controller.close()
+
+
+def test_a_saved_replay_plays_back_the_same_observations_and_actions(server):
+    controller = Controller.connect("127.0.0.1", server.port)
+    try:
+        controller.create_game(map_path="MoveToBeacon.SC2Map", random_seed=5)
+        options = sc2api.InterfaceOptions(score=True)
+        options.feature_layer.width = 24
+        options.feature_layer.resolution.x = options.feature_layer.resolution.y = 16
+        options.feature_layer.minimap_resolution.x = 16
+        options.feature_layer.minimap_resolution.y = 16
+        controller.join_game(options)
+        calls = [FunctionCall(FUNCTIONS.select_army.id, [[0]]),
+                 FunctionCall(FUNCTIONS.Move_screen.id, [[0], [3, 12]]), None,
+                 FunctionCall(FUNCTIONS.Move_screen.id, [[1], [9, 2]])]
+        live = []
+        for call in calls:
+            live.append(controller.observe().observation)
+            if call is not None:
+                controller.actions([proto_actions.to_proto(call)])
+            controller.step(8)
+        data = controller.save_replay()
+        controller.leave()
+        info = controller.replay_info(replay_data=data)
+        assert (info.map_name, info.game_duration_loops) == ("MoveToBeacon", 32)
+        options.feature_layer.resolution.x = 24
+        with pytest.raises(RequestError, match="recorded resolutions, screen \\(16, 16\\)"):
+            controller.start_replay(replay_data=data, options=options)
+        options.feature_layer.resolution.x = 16
+        controller.start_replay(replay_data=data, options=options)
+        assert controller.status == sc2api.Status.Value("in_replay")
+        for t in range(len(calls)):
+            watched = controller.observe()
+            assert watched.observation == live[t]
+            if t:
+                before = calls[t - 1]
+                assert [proto_actions.from_proto(a) for a in watched.actions] == (
+                    [before] if before is not None else [])
+            controller.step(8)
+        assert controller.status == sc2api.Status.Value("ended")
+        watched = controller.observe()
+        assert [proto_actions.from_proto(a) for a in watched.actions] == calls[-1:]
+        controller.leave()
     finally:
         controller.close()
 

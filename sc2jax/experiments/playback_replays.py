@@ -1,0 +1,109 @@
+r"""Plays replays back in StarCraft II and writes what the game shows as a dataset.
+
+    python -m sc2jax.experiments.playback_replays --replays=REPLAYS --output=DIR \
+        --sc2path=~/StarCraftII
+
+With the game installed, each replay is watched for each of its players, as PySC2's
+`replay_actions` does: every --step_mul game loops the game's own feature layers,
+`player` vector and `available_actions`, labelled with the player's next action as a
+PySC2 call, and the player's result as the value (`sc2jax.replay_sl.playback`). The
+dataset has the format `convert_replays` writes without the game, so `train_replays`
+reads both. A replay plays in the game of its own build (`Versions/Base<build>`), which
+must be installed; a replay that cannot be played is skipped with the reason in
+OUTPUT/conversion.json. Running the command again resumes.
+
+sc2jax's SC2-API server (`python -m sc2jax.environment.server`, or an install layout
+from `install_layout.write_sc2path`) plays back the simulator's own replays (saved by
+`GameEnv(save_replay_episodes=...)`), not the game's.
+"""
+
+from __future__ import annotations
+
+import pathlib
+import sys
+import time
+
+from absl import app, flags
+
+from sc2jax.environment.sc2api.launcher import GameProcess, launch
+from sc2jax.replay_sl.archive import ReplayError, base_build
+from sc2jax.replay_sl.dataset import Settings, convert_replays
+from sc2jax.replay_sl.playback import replay_file_records
+
+_REPLAYS = flags.DEFINE_string("replays", None, "A replay file, or a folder searched for "
+                               ".SC2Replay files.")
+_OUTPUT = flags.DEFINE_string("output", None, "The dataset's folder.")
+_SC2PATH = flags.DEFINE_string("sc2path", None, "The game's install (default $SC2PATH or "
+                               "the platform's usual place).")
+_SCREEN = flags.DEFINE_integer("screen_size", 64, "Feature-screen resolution.")
+_MINIMAP = flags.DEFINE_integer("minimap_size", 64, "Feature-minimap resolution.")
+_STEP_MUL = flags.DEFINE_integer("step_mul", 8, "Game loops per agent step.")
+_FULL = flags.DEFINE_bool("full_information", False, "Watch without fog of war.")
+_MAX_STEPS = flags.DEFINE_integer("max_steps", 0, "Record at most this many agent steps "
+                                  "per player (0: all).")
+
+
+def _build_or_zero(path: str) -> tuple[int, str]:
+    """Replays ordered by build, so each game is launched once."""
+    try:
+        return base_build(path), path
+    except ReplayError:
+        return 0, path
+
+
+class _Games:
+    """The game of each replay's build, launched when a replay of another build comes."""
+
+    def __init__(self, sc2path: str | None):
+        self.sc2path, self.build, self.game = sc2path, None, None
+
+    def records(self, path, settings: Settings):
+        try:
+            build = base_build(path)
+        except ReplayError:
+            build = None  # Not the game's archive (a simulator replay): the newest game.
+        if self.game is None or build != self.build or not self.game.running():
+            self.close()
+            try:
+                self.game = launch(self.sc2path, build)
+            except (FileNotFoundError, ValueError, ConnectionError) as error:
+                raise ReplayError(path, f"no game to play it back: {error}") from None
+            self.build = build
+        yield from replay_file_records(path, settings, self.game.controller)
+
+    def close(self) -> None:
+        if isinstance(self.game, GameProcess):
+            self.game.close()
+        self.game = None
+
+
+def main(argv) -> None:
+    del argv
+    if not _REPLAYS.value or not _OUTPUT.value:
+        sys.exit("error: --replays and --output are required")
+    try:
+        settings = Settings(_SCREEN.value, _MINIMAP.value, _STEP_MUL.value, _FULL.value,
+                            _MAX_STEPS.value or None)
+    except ValueError as error:
+        sys.exit(f"error: {error}")
+    root = pathlib.Path(_REPLAYS.value)
+    paths = [str(root)] if root.is_file() else sorted(
+        str(p) for p in root.rglob("*.SC2Replay"))
+    if not paths:
+        sys.exit(f"error: no .SC2Replay files at {_REPLAYS.value!r}")
+    games, start = _Games(_SC2PATH.value), time.time()
+    try:
+        summary = convert_replays(sorted(paths, key=_build_or_zero), _OUTPUT.value, settings,
+                                  records=games.records)
+    except ValueError as error:
+        sys.exit(f"error: {error}")
+    finally:
+        games.close()
+    records = sum(r["records"] or 0 for r in summary["replays"])
+    print(f"\n{len(summary['replays'])} replays played back or already there, "
+          f"{len(summary['failed'])} not; {records} records written in "
+          f"{time.time() - start:.0f} s; see {_OUTPUT.value}/conversion.json")
+
+
+if __name__ == "__main__":
+    app.run(main)
