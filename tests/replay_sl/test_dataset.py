@@ -68,7 +68,7 @@ def test_records_round_trip_and_a_wrong_record_is_refused():
         decode(b"\0" * 10, fields)
 
 
-def test_a_conversion_resumes_and_an_interrupted_shard_is_not_kept(tmp_path, monkeypatch):
+def test_a_conversion_resumes_and_an_interrupted_shard_is_not_kept(tmp_path):
     out = tmp_path / "out"
     real = dataset.replay_records
 
@@ -78,11 +78,9 @@ def test_a_conversion_resumes_and_an_interrupted_shard_is_not_kept(tmp_path, mon
                 raise KeyboardInterrupt
             yield record
 
-    monkeypatch.setattr(dataset, "replay_records", interrupted)
     with pytest.raises(KeyboardInterrupt):
-        convert_replays([str(KAIROS)], out, QUICK, log=lambda _: None)
+        convert_replays([str(KAIROS)], out, QUICK, log=lambda _: None, records=interrupted)
     assert shards(out, "train") == [] and not list((out / "train").iterdir())
-    monkeypatch.setattr(dataset, "replay_records", real)
     first = convert_replays([str(KAIROS)], out, QUICK, log=lambda _: None)
     again = convert_replays([str(KAIROS), str(SLEEPERS)], out, QUICK, log=lambda _: None)
     assert first["replays"][0]["records"] == 24 and not first["replays"][0]["skipped"]
