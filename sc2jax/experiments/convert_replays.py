@@ -22,7 +22,7 @@ import time
 from absl import app, flags
 
 from sc2jax.replay_sl.availability import load_cards
-from sc2jax.replay_sl.dataset import Settings, convert_replays
+from sc2jax.replay_sl.dataset import Settings, convert_replays, summary_line
 
 _REPLAYS = flags.DEFINE_string("replays", None, "A folder searched for .SC2Replay files.")
 _OUTPUT = flags.DEFINE_string("output", None, "The dataset's folder.")
@@ -59,10 +59,7 @@ def main(argv) -> None:
         summary = convert_replays(paths, _OUTPUT.value, settings, processes=_PROCESSES.value)
     except ValueError as error:
         sys.exit(f"error: {error}")
-    records = sum(r["records"] or 0 for r in summary["replays"])
-    print(f"\n{len(summary['replays'])} replays converted or already there, "
-          f"{len(summary['failed'])} not converted; {records} records written in "
-          f"{time.time() - start:.0f} s; see {_OUTPUT.value}/conversion.json")
+    print("\n" + summary_line(summary, _OUTPUT.value, time.time() - start))
 
 
 if __name__ == "__main__":

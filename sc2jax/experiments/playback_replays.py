@@ -27,7 +27,7 @@ from absl import app, flags
 
 from sc2jax.environment.sc2api.launcher import GameProcess, launch
 from sc2jax.replay_sl.archive import ReplayError, base_build
-from sc2jax.replay_sl.dataset import Settings, convert_replays
+from sc2jax.replay_sl.dataset import Settings, convert_replays, summary_line
 from sc2jax.replay_sl.playback import replay_file_records
 
 _REPLAYS = flags.DEFINE_string("replays", None, "A replay file, or a folder searched for "
@@ -99,10 +99,7 @@ def main(argv) -> None:
         sys.exit(f"error: {error}")
     finally:
         games.close()
-    records = sum(r["records"] or 0 for r in summary["replays"])
-    print(f"\n{len(summary['replays'])} replays played back or already there, "
-          f"{len(summary['failed'])} not; {records} records written in "
-          f"{time.time() - start:.0f} s; see {_OUTPUT.value}/conversion.json")
+    print("\n" + summary_line(summary, _OUTPUT.value, time.time() - start))
 
 
 if __name__ == "__main__":

@@ -274,6 +274,28 @@ def convert_replays(paths: list[str], output: str | os.PathLike, settings: Setti
     return summary
 
 
+def summary_line(summary: dict, output: str | os.PathLike, seconds: float) -> str:
+    """One line on a conversion's summary (`convert_replays`' return)."""
+    records = sum(r["records"] or 0 for r in summary["replays"])
+    return (f"{len(summary['replays'])} replays written or already there, "
+            f"{len(summary['failed'])} not; {records} records written in {seconds:.0f} s; "
+            f"see {output}/conversion.json")
+
+
+def read_shard(shard: str | os.PathLike, fields: dict, chunk: int = 256) -> Iterator[dict]:
+    """The records of one shard in order (`decode`d with `fields`), read `chunk` at a
+    time."""
+    from array_record.python.array_record_module import ArrayRecordReader
+
+    reader = ArrayRecordReader(str(shard))
+    try:
+        for start in range(0, reader.num_records(), chunk):
+            for data in reader.read(start, min(start + chunk, reader.num_records())):
+                yield decode(data, fields)
+    finally:
+        reader.close()
+
+
 def shards(output: str | os.PathLike, split: str) -> list[str]:
     """The shards of a split, sorted."""
     if split not in SPLITS:

@@ -45,8 +45,8 @@ from sc2jax.replay_sl.dataset import (
     WRITER_OPTIONS,
     Settings,
     dataset_settings,
-    decode,
     encode,
+    read_shard,
     read_summary,
     schema,
     shard_name,
@@ -157,20 +157,9 @@ def _play_batch(sim: Simulator, play, carry: Any, keys: tuple[jax.Array, jax.Arr
 def _finish(partial: pathlib.Path, shard: pathlib.Path, value: float, fields: dict) -> None:
     """Writes `partial`'s records, their value set, as `shard` (atomically), and removes
     `partial`."""
-    from array_record.python.array_record_module import ArrayRecordReader
-
-    reader = ArrayRecordReader(str(partial))
     target = np.float32(value)
-
-    def records():
-        for start in range(0, reader.num_records(), 256):
-            for data in reader.read(start, min(start + 256, reader.num_records())):
-                yield {**decode(data, fields), "value": target}
-
-    try:
-        write_shard(shard, records(), fields)
-    finally:
-        reader.close()
+    write_shard(shard, ({**record, "value": target} for record in read_shard(partial, fields)),
+                fields)
     partial.unlink()
 
 

@@ -12,7 +12,7 @@ import pytest
 from sc2jax.environment import make
 from sc2jax.environment.agents import scripted_policy
 from sc2jax.environment.interface.dense import DenseAction
-from sc2jax.replay_sl.dataset import dataset_settings, decode, loader, schema, shards
+from sc2jax.replay_sl.dataset import dataset_settings, loader, read_shard, schema, shards
 from sc2jax.replay_sl.demonstrations import Recording, batch_keys, record_demonstrations
 
 RECORDING = Recording("MoveToBeacon", "scripted", seed=3, num_envs=2)
@@ -30,16 +30,6 @@ def beacon():
     return sim, act
 
 
-def _records(shard, fields):
-    from array_record.python.array_record_module import ArrayRecordReader
-
-    reader = ArrayRecordReader(str(shard))
-    try:
-        return [decode(data, fields) for data in reader.read(0, reader.num_records())]
-    finally:
-        reader.close()
-
-
 @pytest.mark.slow
 def test_demonstrations_are_exact_and_resume(tmp_path, beacon):
     sim, act = beacon
@@ -50,7 +40,7 @@ def test_demonstrations_are_exact_and_resume(tmp_path, beacon):
     assert [e["episode"] for e in episodes] == [0, 1, 2, 3]  # two whole batches
     assert not (out / ".partial").exists()
     fields = schema(dataset_settings(out))
-    first = _records(episodes[0]["shard"], fields)
+    first = list(read_shard(episodes[0]["shard"], fields))
     assert len(first) == episodes[0]["records"] > 0
     # Played again from its records, episode 0 gives the same observations and score.
     step = jax.jit(lambda state, action, obs: sim.step(state, action, previous=obs))
@@ -71,7 +61,7 @@ def test_demonstrations_are_exact_and_resume(tmp_path, beacon):
         median = np.median([e["score"] for e in batch])
         for e in batch:
             assert e["value"] == float(e["score"] > median)
-            assert _records(e["shard"], fields)[0]["value"] == e["value"]
+            assert list(read_shard(e["shard"], fields))[0]["value"] == e["value"]
     # The loader serves them; a second run resumes; a lost shard is played again the same.
     batch = next(iter(loader(out, "train", batch_size=4)))
     assert batch["feature_screen"].shape == (4, 27, 16, 16)

@@ -20,7 +20,7 @@ from sc2jax.environment.sc2api.controller import Controller
 from sc2jax.environment.sc2api.protos import sc2api
 from sc2jax.environment.server import Sc2ApiServer
 from sc2jax.environment.server.install_layout import write_sc2path
-from sc2jax.replay_sl.dataset import Settings, dataset_settings, decode, schema
+from sc2jax.replay_sl.dataset import Settings, dataset_settings, read_shard, schema
 from sc2jax.replay_sl.playback import VICTORY, interface_options, playback_replays
 
 SETTINGS = Settings(screen_size=16, minimap_size=16)
@@ -64,16 +64,6 @@ def _play_episode(controller):
     return observations, calls, result, data
 
 
-def _records(shard, fields):
-    from array_record.python.array_record_module import ArrayRecordReader
-
-    reader = ArrayRecordReader(str(shard))
-    try:
-        return [decode(data, fields) for data in reader.read(0, reader.num_records())]
-    finally:
-        reader.close()
-
-
 def test_a_played_back_replay_gives_the_games_observations_and_calls(tmp_path, controller):
     observations, calls, result, data = _play_episode(controller)
     replay = tmp_path / "replays" / "beacon.SC2Replay"
@@ -87,7 +77,7 @@ def test_a_played_back_replay_gives_the_games_observations_and_calls(tmp_path, c
     assert "StarCraft II replay (MPQ)" in summary["failed"][0]["error"]
     (converted,) = summary["replays"]
     assert converted["records"] == len(calls) == 240  # 1,920 loops in steps of 8
-    records = _records(converted["shard"], schema(dataset_settings(out)))
+    records = list(read_shard(converted["shard"], schema(dataset_settings(out))))
     for t, (record, obs, call) in enumerate(zip(records, observations, calls)):
         np.testing.assert_array_equal(record["feature_screen"], obs["feature_screen"])
         np.testing.assert_array_equal(record["feature_minimap"], obs["feature_minimap"])
