@@ -57,6 +57,9 @@ RESET_STEP_MUL = 8
 depend on it; 8, PySC2's default, shares its compiled reset with SC2Env's)."""
 MAX_STEP_COUNT = 10_000
 """The most game loops one `RequestStep` may run here."""
+MAX_ACTIONS_PER_STEP = 64
+"""The most actions waiting for one step (PySC2 sends one per agent step; a step's work
+grows with them, under the server's lock)."""
 
 SC2_NAMES = {
     UnitType.MARINE: "Marine", UnitType.ZERGLING: "Zergling", UnitType.ROACH: "Roach",
@@ -76,6 +79,26 @@ SUPPORTED = ("ping", "create_game", "join_game", "restart_game", "leave_game", "
 log = logging.getLogger(__name__)
 _PARAMS = EnvParams(game_steps_per_episode=np.int32(0))  # The map's own timer ends games.
 _STATUS = sc2api.Status
+_RESULT = sc2api.ActionResult
+
+
+def _check_replay(replay: Replay) -> None:
+    """Raises ValueError for a replay this server would not have written: another map,
+    a bad key or resolution, a step of more than `MAX_STEP_COUNT` loops or
+    `MAX_ACTIONS_PER_STEP` calls, or a call outside its resolutions."""
+    if replay.map_name not in MAPS:
+        raise ValueError(f"the replay's map {replay.map_name!r} is not a mini-game of the "
+                         f"simulator; it has {sorted(MAPS)}")
+    if len(replay.key) != 2 or not all(0 <= k < 2 ** 32 for k in replay.key):
+        raise ValueError(f"the replay's key {replay.key!r} is not two 32-bit words")
+    types = specs.ObservationFormat(replay.screen_size, replay.minimap_size).types
+    for n, (loops, calls) in enumerate(replay.steps):
+        if not 1 <= loops <= MAX_STEP_COUNT or len(calls) > MAX_ACTIONS_PER_STEP:
+            raise ValueError(f"the replay's step {n} runs {loops} loops with {len(calls)} "
+                             f"calls; allowed: 1..{MAX_STEP_COUNT} loops, at most "
+                             f"{MAX_ACTIONS_PER_STEP} calls")
+        for call in calls:
+            validate_function_call(call, types)
 
 
 @functools.cache
@@ -186,7 +209,7 @@ class GameService:
                                                 "(its observations are feature layers)")
             return
         try:
-            if layers.HasField("width") and abs(layers.width - 24) > 1e-6:
+            if layers.HasField("width") and not abs(layers.width - 24) <= 1e-6:  # NaN too
                 raise ValueError(f"feature_layer.width {layers.width} is not supported; the "
                                  f"simulator's camera is 24 world units wide")
             # With `raw`, the format of a PySC2 client that asks for the unit lists, so
@@ -256,16 +279,23 @@ class GameService:
 
     def _action(self, request, response) -> None:
         self._require("action", _STATUS.in_game, _STATUS.ended)
+        if len(self._pending) + len(request.actions) > MAX_ACTIONS_PER_STEP:
+            raise RequestError("action", [
+                f"{len(request.actions)} actions with {len(self._pending)} already waiting "
+                f"for the next step; at most {MAX_ACTIONS_PER_STEP} per step"])
         for action in request.actions:
             call = proto_actions.from_proto(action)
-            try:
-                call = validate_function_call(call, self._fmt.types)
-                code = sc2api.ActionResult.Value("Success")
-            except ValueError:
-                call = FunctionCall(FUNCTIONS.no_op.id, [])
-                code = sc2api.ActionResult.Value("Error")
-            if self.status == _STATUS.in_game:
-                self._pending.append(call)
+            if self.status != _STATUS.in_game:
+                code = _RESULT.Value("Error")  # The game has ended: nothing is done.
+            elif call.function == FUNCTIONS.no_op.id:
+                # Raw, render or chat actions, or an ability PySC2 has no function for.
+                code = _RESULT.Value("NotSupported")
+            else:
+                try:
+                    self._pending.append(validate_function_call(call, self._fmt.types))
+                    code = _RESULT.Value("Success")
+                except ValueError:
+                    code = _RESULT.Value("Error")
             response.action.result.append(code)
 
     def _step(self, request, response) -> None:
@@ -371,7 +401,9 @@ class GameService:
             error.error_details = f"cannot read {request.replay_path!r}: {e}"
             return None
         try:
-            return Replay.from_bytes(data)
+            replay = Replay.from_bytes(data)
+            _check_replay(replay)
+            return replay
         except ValueError as e:
             error.error = error.Error.Value("InvalidReplayData")
             error.error_details = str(e)

@@ -79,13 +79,7 @@ def test_requests_out_of_order_and_bad_setups_get_errors(server):
 def test_a_saved_replay_plays_back_the_same_observations_and_actions(server):
     controller = Controller.connect("127.0.0.1", server.port)
     try:
-        controller.create_game(map_path="MoveToBeacon.SC2Map", random_seed=5)
-        options = sc2api.InterfaceOptions(score=True)
-        options.feature_layer.width = 24
-        options.feature_layer.resolution.x = options.feature_layer.resolution.y = 16
-        options.feature_layer.minimap_resolution.x = 16
-        options.feature_layer.minimap_resolution.y = 16
-        controller.join_game(options)
+        options = _join_beacon(controller)
         calls = [FunctionCall(FUNCTIONS.select_army.id, [[0]]),
                  FunctionCall(FUNCTIONS.Move_screen.id, [[0], [3, 12]]), None,
                  FunctionCall(FUNCTIONS.Move_screen.id, [[1], [9, 2]])]
@@ -117,6 +111,82 @@ def test_a_saved_replay_plays_back_the_same_observations_and_actions(server):
         watched = controller.observe()
         assert [proto_actions.from_proto(a) for a in watched.actions] == calls[-1:]
         controller.leave()
+    finally:
+        controller.close()
+
+
+def _join_beacon(controller, size=16):
+    controller.create_game(map_path="MoveToBeacon.SC2Map", random_seed=5)
+    options = sc2api.InterfaceOptions(score=True)
+    options.feature_layer.width = 24
+    options.feature_layer.resolution.x = options.feature_layer.resolution.y = size
+    options.feature_layer.minimap_resolution.x = size
+    options.feature_layer.minimap_resolution.y = size
+    controller.join_game(options)
+    return options
+
+
+def test_actions_get_honest_results_and_a_flood_is_refused(server):
+    controller = Controller.connect("127.0.0.1", server.port)
+    result = sc2api.ActionResult.Name
+    try:
+        _join_beacon(controller)
+        raw = sc2api.Action()
+        raw.action_raw.camera_move.center_world_space.x = 10
+        chat = sc2api.Action()
+        chat.action_chat.message = "gl hf"
+        unknown = sc2api.Action()
+        unknown.action_feature_layer.unit_command.ability_id = 999_999
+        army = proto_actions.to_proto(FunctionCall(FUNCTIONS.select_army.id, [[0]]))
+        outside = proto_actions.to_proto(FunctionCall(FUNCTIONS.Move_screen.id, [[0], [40, 3]]))
+        replies = controller.actions([raw, chat, unknown, army, outside]).result
+        assert [result(r) for r in replies] == ["NotSupported", "NotSupported",
+                                                "NotSupported", "Success", "Error"]
+        with pytest.raises(RequestError, match="64 actions with 1 already waiting for the "
+                                               "next step; at most 64 per step"):
+            controller.actions([army] * 64)
+        controller.actions([army] * 63)  # 64 in all: allowed
+        while controller.step(8) and controller.status != sc2api.Status.Value("ended"):
+            pass
+        assert [result(r) for r in controller.actions([army]).result] == ["Error"]
+    finally:
+        controller.close()
+
+
+def test_a_camera_width_that_is_not_a_number_is_refused(server):
+    controller = Controller.connect("127.0.0.1", server.port)
+    try:
+        controller.create_game(map_path="MoveToBeacon.SC2Map")
+        options = sc2api.InterfaceOptions()
+        options.feature_layer.width = float("nan")
+        options.feature_layer.resolution.x = options.feature_layer.resolution.y = 16
+        options.feature_layer.minimap_resolution.x = 16
+        options.feature_layer.minimap_resolution.y = 16
+        with pytest.raises(RequestError, match="FeatureUnsupported.*width nan"):
+            controller.join_game(options)
+    finally:
+        controller.close()
+
+
+def test_a_replay_the_server_would_not_have_written_is_refused(server):
+    from sc2jax.environment.server.replays import Replay
+
+    controller = Controller.connect("127.0.0.1", server.port)
+    army = FunctionCall(FUNCTIONS.select_army.id, [[0]])
+    good = dict(map_name="MoveToBeacon", map_path="", key=[0, 5], screen_size=(16, 16),
+                minimap_size=(16, 16), steps=[(8, [army])], result=None)
+    try:
+        for change, message in ((dict(map_name="Simple64"), "not a mini-game"),
+                                (dict(key=[1]), "is not two 32-bit words"),
+                                (dict(steps=[(8, [army] * 65)]), "at most 64 calls"),
+                                (dict(steps=[(0, [])]), "runs 0 loops"),
+                                (dict(steps=[(8, [FunctionCall(331, [[0], [99, 0]])])]),
+                                 "outside the allowed range")):
+            data = Replay(**{**good, **change}).to_bytes()
+            with pytest.raises(RequestError, match=f"InvalidReplayData.*{message}"):
+                controller.replay_info(replay_data=data)
+        assert controller.replay_info(replay_data=Replay(**good).to_bytes()).map_name == (
+            "MoveToBeacon")
     finally:
         controller.close()
 
