@@ -155,6 +155,12 @@ class GameService:
         response.status = self.status
         return response
 
+    def abandon(self) -> None:
+        """Leaves the game or replay, if one runs (its owner has gone)."""
+        if self.status in (_STATUS.init_game, _STATUS.in_game, _STATUS.in_replay,
+                           _STATUS.ended):
+            self._state, self._replay, self.status = None, None, _STATUS.launched
+
     def _require(self, kind: str, *statuses) -> None:
         if self.status not in statuses:
             allowed = ", ".join(_STATUS.Name(s) for s in statuses)

@@ -7,9 +7,22 @@ It answers the StarCraft II API at `ws://HOST:PORT/sc2api` with `GameService`, s
 SC2-API client (sc2jax's own, or PySC2) can play the mini-games on the simulator. As the
 game does, it accepts requests in BINARY frames and in TEXT frames that are not valid
 UTF-8 (known clients send those), replies in BINARY frames, answers one request at a
-time (from any number of connections), and exits after `RequestQuit`. A malformed
-request gets `Response.error`; a frame over `--max_message_mb` closes that connection
-(code 1009) and the server goes on.
+time, and exits after `RequestQuit`. A malformed request gets `Response.error`; a frame
+over `--max_message_mb` closes that connection (code 1009) and the server goes on.
+
+It has no authentication, so it guards the one game it runs:
+
+- **One owner.** The connection whose `create_game` or `start_replay` starts a game owns
+  it until it leaves: other connections get an error for anything but `ping` (`quit`
+  included). When the owner disconnects, its game is left, so the next client starts
+  cleanly.
+- **Local pages only.** A handshake with an `Origin` header of another host than this
+  machine (a web page the user visits) is refused (403); API clients send none, or a
+  local one.
+- **Bounded.** At most `MAX_CONNECTIONS` connections at once (more get 503), frames of
+  at most `MAX_MESSAGE_BYTES` (8 MiB: a mini-game map is about 30 KB and a simulator
+  replay of the longest mini-game, 2,520 agent steps, about 100 KB per call a step),
+  and at most `game_service.MAX_ACTIONS_PER_STEP` actions a step.
 
 It takes the game's own command-line arguments (`-listen`, `-port`, and ignores
 `-dataDir`, `-tempDir`, `-displayMode`, ...), so a launcher that starts the game can
@@ -23,6 +36,7 @@ import http
 import logging
 import sys
 import threading
+import urllib.parse
 from collections.abc import Callable, Sequence
 
 from google.protobuf.message import DecodeError
@@ -34,7 +48,11 @@ from sc2jax.environment.server.game_service import GameService
 from sc2jax.environment.server.install_layout import write_sc2path
 
 PATH = "/sc2api"
-MAX_MESSAGE_BYTES = 64 << 20
+MAX_MESSAGE_BYTES = 8 << 20
+MAX_CONNECTIONS = 16
+LOOPBACK = ("127.0.0.1", "localhost", "::1")
+OPEN_TO_ALL = ("ping",)
+"""The requests answered to connections that do not own the game."""
 
 log = logging.getLogger(__name__)
 
@@ -50,15 +68,19 @@ class Sc2ApiServer:
     Args:
       host, port: where to listen (port 0 picks a free one; see `port`).
       max_message_bytes: the largest request frame accepted.
+      max_connections: the most connections at once.
     """
 
     def __init__(self, host: str = "127.0.0.1", port: int = 0,
-                 max_message_bytes: int = MAX_MESSAGE_BYTES):
+                 max_message_bytes: int = MAX_MESSAGE_BYTES,
+                 max_connections: int = MAX_CONNECTIONS):
         self.service = GameService()
         self._lock = threading.Lock()
-        self._stopped = False
+        self._stopped = self._quitting = False
+        self._owner: object | None = None
+        self._connections, self._max_connections = 0, max_connections
         self._server = serve(self._connection, host, port, max_size=max_message_bytes,
-                             process_request=self._check_path, compression=None,
+                             process_request=self._check_request, compression=None,
                              ping_interval=None, close_timeout=2)
 
     @property
@@ -77,18 +99,38 @@ class Sc2ApiServer:
             self._stopped = True
         self._server.shutdown()
 
-    def _check_path(self, connection, request):
+    def _check_request(self, connection, request):
         if request.path != PATH:
             return connection.respond(http.HTTPStatus.NOT_FOUND, f"the SC2 API is at {PATH}\n")
+        origin = request.headers.get("Origin")
+        if origin is not None and urllib.parse.urlsplit(origin).hostname not in LOOPBACK:
+            return connection.respond(http.HTTPStatus.FORBIDDEN,
+                                      f"connections from pages of {origin} are refused\n")
+        if self._connections >= self._max_connections:
+            return connection.respond(http.HTTPStatus.SERVICE_UNAVAILABLE,
+                                      f"{self._max_connections} connections are open; the "
+                                      f"most this server takes\n")
         return None
 
     def _connection(self, connection: ServerConnection) -> None:
+        with self._lock:
+            self._connections += 1
+        try:
+            self._serve(connection)
+        finally:
+            with self._lock:
+                self._connections -= 1
+                if self._owner is connection:  # Gone without leaving: the game is left.
+                    self._owner = None
+                    self.service.abandon()
+
+    def _serve(self, connection: ServerConnection) -> None:
         while True:
             try:
                 message = connection.recv(decode=False)
             except ConnectionClosed:
                 return
-            reply, quit_now = self.answer(message)
+            reply, quit_now = self.answer(message, connection)
             if quit_now:  # The client may not wait for the reply.
                 threading.Thread(target=self.shutdown, daemon=True).start()
             try:
@@ -99,16 +141,31 @@ class Sc2ApiServer:
                 connection.close()
                 return
 
-    def answer(self, message: bytes) -> tuple[bytes, bool]:
-        """The serialized reply to one request frame, and whether it was a quit."""
+    def answer(self, message: bytes, client: object = None) -> tuple[bytes, bool]:
+        """The serialized reply to one request frame from `client` (a connection; None:
+        the in-process caller), and whether it was a quit."""
         try:
             request = sc2api.Request.FromString(bytes(message))
         except DecodeError as e:
             return _reply_error(f"malformed request ({len(message)} bytes): {e}"), False
+        kind = request.WhichOneof("request")
         with self._lock:  # Requests from several connections take turns.
+            if self._quitting:
+                return _reply_error("the server has quit"), False
+            if self._owner not in (None, client) and kind not in OPEN_TO_ALL:
+                response = sc2api.Response(error=[
+                    f"{kind}: the game belongs to another connection; this one may only "
+                    f"{', '.join(OPEN_TO_ALL)} until it leaves"], status=self.service.status)
+                if request.HasField("id"):
+                    response.id = request.id
+                return response.SerializeToString(), False
             response = self.service.handle(request)
-        return response.SerializeToString(), request.HasField("quit")
-
+            if self.service.status in (sc2api.Status.launched, sc2api.Status.quit):
+                self._owner = None
+            elif kind in ("create_game", "start_replay"):
+                self._owner = client
+            self._quitting = request.HasField("quit")
+        return response.SerializeToString(), self._quitting
 
 def _parse(argv: Sequence[str]) -> tuple[argparse.Namespace, list[str]]:
     parser = argparse.ArgumentParser(
@@ -138,6 +195,9 @@ def main(argv: Sequence[str] | None = None,
         raise SystemExit(f"--max_message_mb must be positive, got {args.max_message_mb}")
     if ignored:
         log.info("ignoring game arguments %s", ignored)
+    if args.host not in LOOPBACK:
+        print(f"warning: listening on {args.host}: this server has no authentication, so "
+              f"anyone who can reach it can play its game", file=sys.stderr)
     server = Sc2ApiServer(args.host, args.port, int(args.max_message_mb * 2 ** 20))
     announce(f"sc2jax SC2 API server listening on ws://{args.host}:{server.port}{PATH}")
     server.serve_forever()

@@ -191,6 +191,55 @@ def test_a_replay_the_server_would_not_have_written_is_refused(server):
         controller.close()
 
 
+def test_the_game_belongs_to_the_connection_that_started_it(server):
+    owner = Controller.connect("127.0.0.1", server.port)
+    other = Controller.connect("127.0.0.1", server.port)
+    try:
+        _join_beacon(owner)
+        owner.step(8)
+        for request in (lambda: other.step(8), other.observe, other.leave,
+                        lambda: other.create_game(map_path="MoveToBeacon.SC2Map")):
+            with pytest.raises(RequestError, match="belongs to another connection; this one "
+                                                   "may only ping"):
+                request()
+        assert other.ping().base_build == 75689
+        refused = other._exchange("quit", sc2api.Request(id=99, quit=sc2api.RequestQuit()))
+        assert "belongs to another connection" in refused.error[0]
+        owner.close()  # Gone without leaving: the game is left for the next client.
+        deadline = time.time() + 30
+        while True:
+            try:
+                _join_beacon(other)
+                break
+            except RequestError:
+                assert time.time() < deadline, "the owner's game was not left"
+                time.sleep(0.1)
+        assert other.step(8).simulation_loop == 8
+    finally:
+        owner.close()
+        other.close()
+
+
+def test_foreign_pages_and_too_many_connections_are_refused():
+    server = Sc2ApiServer(port=0, max_connections=2)
+    threading.Thread(target=server.serve_forever, daemon=True).start()
+    url = f"ws://127.0.0.1:{server.port}/sc2api"
+    open_ = []
+    try:
+        with pytest.raises(websocket.WebSocketBadStatusException, match="403"):
+            websocket.create_connection(url, origin="https://example.com", timeout=30)
+        open_.append(websocket.create_connection(url, origin=f"http://localhost:{server.port}",
+                                                 timeout=30))
+        open_.append(websocket.create_connection(url, suppress_origin=True, timeout=30))
+        time.sleep(0.2)  # Both handlers have started.
+        with pytest.raises(websocket.WebSocketBadStatusException, match="503"):
+            websocket.create_connection(url, timeout=30)
+    finally:
+        for socket in open_:
+            socket.close()
+        server.shutdown()
+
+
 def test_text_frames_that_are_not_utf8_are_served_and_replies_are_binary(server):
     # Known clients (PySC2) send the serialized request in TEXT frames.
     socket = websocket.create_connection(f"ws://127.0.0.1:{server.port}/sc2api", timeout=30)
