@@ -120,9 +120,14 @@ class Sc2ApiServer:
         finally:
             with self._lock:
                 self._connections -= 1
-                if self._owner is connection:  # Gone without leaving: the game is left.
-                    self._owner = None
-                    self.service.abandon()
+            self.gone(connection)
+
+    def gone(self, client: object) -> None:
+        """`client` has disconnected: its game, if it owns one, is left."""
+        with self._lock:
+            if self._owner is client and client is not None:
+                self._owner = None
+                self.service.abandon()
 
     def _serve(self, connection: ServerConnection) -> None:
         while True:
