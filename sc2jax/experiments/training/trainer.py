@@ -292,7 +292,8 @@ def train(config: TrainConfig, run_dir: str, *, log: Callable[[str], None] = pri
       The `TrainResult`.
 
     Raises:
-      ValueError: if `run_dir` holds a run with a different config.
+      ValueError: if `run_dir` holds a run with a different config, or `init_from`
+        cannot start this one (`start_params`).
     """
     start = time.time()
     check_run_dir(run_dir, config)
