@@ -182,7 +182,7 @@ def apply_action(state: EnvState, action: DenseAction, renderer: Renderer,
 
     def build():
         new_units, result = production.order_build(
-            units, minerals, jnp.asarray(renderer.geometry.buildable), makes, ctx.point,
+            units, minerals, renderer.buildable, makes, ctx.point,
             ctx.picked, a.queued)
         return paid(new_units, result)
 

@@ -293,6 +293,9 @@ class Renderer:
         # zero in every view, however the camera moves: a zero layer too.
         self.zero_layers = frozenset(zero_layers) | {
             name for name in STATIC_TERRAIN if not np.any(getattr(geometry, name))}
+        # The map's buildable cells as a device array made here, outside any trace: one
+        # made while tracing is a tracer, which a step's programs must not keep.
+        self.buildable = jnp.asarray(geometry.buildable)
         self.screen_box = box_size(max_radius * self.camera.pixels_per_unit)
         self.minimap_box = box_size(max_radius * self.minimap.pixels_per_unit)
 

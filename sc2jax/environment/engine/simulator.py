@@ -274,7 +274,7 @@ class Simulator:
     def _advance(self, state: EnvState, action: DenseAction) -> EnvState:
         state = self.act(state, action)
         game = self.game
-        buildable = jnp.asarray(game.geometry.buildable)
+        buildable = self.renderer.buildable
 
         def one_loop(carry, _):
             state, heading = carry

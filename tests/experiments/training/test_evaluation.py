@@ -104,6 +104,20 @@ def test_scripted_move_to_beacon_plays_like_a_human():
     np.testing.assert_array_equal(stats.scores, again.scores)  # Same seed, same episodes.
 
 
+@pytest.mark.slow
+def test_the_random_policy_plays_an_economy_map_without_leaking_a_tracer():
+    # The map's buildable grid was made a device array inside the step's trace, so the
+    # episodes' program kept a tracer and failed to lower ("No constant handler").
+    import jax
+
+    sim = simulator("CollectMineralsAndGas", ObservationFormat(16, 16), 64, 0, 1.0, 1.0,
+                    False)
+    policy = evaluation.make_policy("random", "CollectMineralsAndGas", sim.fmt)
+    with jax.checking_leaks():
+        stats = evaluation.run_episodes(sim, policy, episodes=2, num_envs=2)
+    assert stats.steps.tolist() == [105, 105]  # 6,720 loops, in steps of 64
+
+
 def test_evaluate_rejects_bad_flags_before_compiling(tmp_path):
     out = subprocess.run([sys.executable, "-m", "sc2jax.experiments.evaluate", "--map=Nope"],
                          capture_output=True, text=True, timeout=120)
