@@ -18,9 +18,11 @@ whose keys come from the seed and the batch's index, so a recording that is run 
 skips the batches whose shards are all there and plays the others as it would have
 (`batch_keys`).
 
-    act = lambda key, carry, obs, first: (carry, jax.vmap(policy)(keys(key), obs))
-    record_demonstrations(sim, act, None, "/tmp/demos", map_name="MoveToBeacon",
-                          agent="scripted", episodes=100)
+    def act(key, carry, obs, first):  # a `Policy` of one environment, batched
+        return carry, jax.vmap(policy)(jax.random.split(key, first.shape[0]), obs)
+
+    record_demonstrations(sim, act, None, "/tmp/demos",
+                          Recording("MoveToBeacon", "scripted", seed=0, num_envs=16), 100)
 """
 
 from __future__ import annotations
