@@ -84,15 +84,15 @@ def playback_records(controller: Controller, data: bytes, player_id: int,
                                 disable_fog=settings.full_information)
     except RequestError as error:
         raise ReplayError(path, f"the game cannot play it back: {error}") from None
-    game = controller.game_info()
-    races = {p.player_id: p.race_requested for p in game.player_info}
-    home = races.get(player_id, 0)
-    away = next((race for pid, race in races.items() if pid != player_id), 0)
-    map_size = (game.start_raw.map_size.x, game.start_raw.map_size.y)
     fmt = ObservationFormat(screen_size=settings.screen_size,
                             minimap_size=settings.minimap_size)
     previous, steps = None, 0
     try:
+        game = controller.game_info()
+        races = {p.player_id: p.race_requested for p in game.player_info}
+        home = races.get(player_id, 0)
+        away = next((race for pid, race in races.items() if pid != player_id), 0)
+        map_size = (game.start_raw.map_size.x, game.start_raw.map_size.y)
         while True:
             response = controller.observe()
             if previous is not None:
