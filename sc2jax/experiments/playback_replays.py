@@ -19,28 +19,20 @@ from `install_layout.write_sc2path`) plays back the simulator's own replays (sav
 
 from __future__ import annotations
 
-import pathlib
 import sys
 import time
 
 from absl import app, flags
 
 from sc2jax.environment.sc2api.launcher import GameProcess, launch
+from sc2jax.experiments.replay_training import dataset_flags
 from sc2jax.replay_sl.archive import ReplayError, base_build
 from sc2jax.replay_sl.dataset import Settings, convert_replays, summary_line
 from sc2jax.replay_sl.playback import replay_file_records
 
-_REPLAYS = flags.DEFINE_string("replays", None, "A replay file, or a folder searched for "
-                               ".SC2Replay files.")
-_OUTPUT = flags.DEFINE_string("output", None, "The dataset's folder.")
 _SC2PATH = flags.DEFINE_string("sc2path", None, "The game's install (default $SC2PATH or "
                                "the platform's usual place).")
-_SCREEN = flags.DEFINE_integer("screen_size", 64, "Feature-screen resolution.")
-_MINIMAP = flags.DEFINE_integer("minimap_size", 64, "Feature-minimap resolution.")
-_STEP_MUL = flags.DEFINE_integer("step_mul", 8, "Game loops per agent step.")
-_FULL = flags.DEFINE_bool("full_information", False, "Watch without fog of war.")
-_MAX_STEPS = flags.DEFINE_integer("max_steps", 0, "Record at most this many agent steps "
-                                  "per player (0: all).")
+flags.adopt_module_key_flags(dataset_flags)
 
 
 def _build_or_zero(path: str) -> tuple[int, str]:
@@ -79,27 +71,19 @@ class _Games:
 
 def main(argv) -> None:
     del argv
-    if not _REPLAYS.value or not _OUTPUT.value:
-        sys.exit("error: --replays and --output are required")
     try:
-        settings = Settings(_SCREEN.value, _MINIMAP.value, _STEP_MUL.value, _FULL.value,
-                            _MAX_STEPS.value or None)
+        settings, paths = dataset_flags.settings_and_paths()
     except ValueError as error:
         sys.exit(f"error: {error}")
-    root = pathlib.Path(_REPLAYS.value)
-    paths = [str(root)] if root.is_file() else sorted(
-        str(p) for p in root.rglob("*.SC2Replay"))
-    if not paths:
-        sys.exit(f"error: no .SC2Replay files at {_REPLAYS.value!r}")
     games, start = _Games(_SC2PATH.value), time.time()
     try:
-        summary = convert_replays(sorted(paths, key=_build_or_zero), _OUTPUT.value, settings,
-                                  records=games.records)
+        summary = convert_replays(sorted(paths, key=_build_or_zero), dataset_flags.OUTPUT.value,
+                                  settings, records=games.records)
     except ValueError as error:
         sys.exit(f"error: {error}")
     finally:
         games.close()
-    print("\n" + summary_line(summary, _OUTPUT.value, time.time() - start))
+    print("\n" + summary_line(summary, dataset_flags.OUTPUT.value, time.time() - start))
 
 
 if __name__ == "__main__":
