@@ -105,7 +105,7 @@ def main(argv) -> None:
         core = actor_core(replay_run.network, _TEMPERATURE.value)
         print(f"Restored {replay_run.agent} after {replay_run.update} updates on replays "
               f"from {_RUN_DIR.value}")
-        sim = make(map_name, fmt.screen_size, fmt.minimap_size, replay_run.step_mul).simulator
+        sim = replay_run.simulator(map_name)
 
         def run(on_batch):
             return evaluation.run_core_episodes(sim, core, replay_run.params,

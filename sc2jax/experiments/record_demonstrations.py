@@ -76,9 +76,8 @@ def _agent_and_simulator():
     """(agent name, `demonstrations.Act`, initial carry, simulator) from the flags."""
     if _RUN_DIR.value and pretrained.is_replay_run(_RUN_DIR.value):
         run = pretrained.load_replay_run(_RUN_DIR.value, _STEP.value)
-        sim = make(_MAP.value, run.fmt.screen_size, run.fmt.minimap_size, run.step_mul,
-                   seed=_SEED.value).simulator
-        return (*_network_agent(run.network, run.params, f"replays_{run.agent}"), sim)
+        return (*_network_agent(run.network, run.params, f"replays_{run.agent}"),
+                run.simulator(_MAP.value, _SEED.value))
     if _RUN_DIR.value:
         agent, params, _ = trainer.load_run(_RUN_DIR.value, _STEP.value)
         if agent.sim is None:

@@ -241,7 +241,7 @@ class GameService:
     def _leave_game(self, request, response) -> None:
         del request, response
         self._require("leave_game", _STATUS.in_game, _STATUS.in_replay, _STATUS.ended)
-        self._state, self._replay, self.status = None, None, _STATUS.launched
+        self.abandon()
 
     def _quit(self, request, response) -> None:
         del request, response

@@ -22,6 +22,8 @@ from typing import Any
 import jax
 import numpy as np
 
+from sc2jax.environment import make
+from sc2jax.environment.engine.simulator import Simulator
 from sc2jax.environment.interface.specs import ObservationFormat
 from sc2jax.experiments.training.checkpoints import Checkpointer
 from sc2jax.networks.factory import make_network
@@ -57,6 +59,12 @@ class ReplayRun:
     fmt: ObservationFormat
     step_mul: int
     update: int
+
+    def simulator(self, map_name: str, seed: int = 0) -> Simulator:
+        """A mini-game's simulator in the observation format and step_mul the network
+        was trained on."""
+        return make(map_name, self.fmt.screen_size, self.fmt.minimap_size, self.step_mul,
+                    seed=seed).simulator
 
 
 def zero_batch(settings: Settings):
