@@ -133,7 +133,7 @@ class Simulator:
                                      jnp.float32(0.0))
 
     def step(self, state: EnvState, action: DenseAction, params: EnvParams | None = None,
-             previous: dict | None = None):
+             previous: dict | None = None, loops=None):
         """Advances one agent step (or starts a new episode after LAST).
 
         Args:
@@ -147,6 +147,10 @@ class Simulator:
             its visibility on maps without fog) are kept, not written again: in a jitted
             loop that carries the timestep, XLA then updates them in place. The
             observation is the same as without it.
+          loops: None to run `step_mul` game loops, or an int32 scalar in
+            [1, 10000]: the step's game loops as a run-time value, so one compiled
+            program runs any count (the SC2-API server's `RequestStep.count`). The
+            step is then the step of a simulator with `step_mul=loops`, bit for bit.
 
         Returns:
           (state, dm_env.TimeStep of arrays).
@@ -160,7 +164,8 @@ class Simulator:
         over = self.episode_over(state, params)
         reset_key, _ = threefry.split(state.key)
         # The auto-reset: a fresh episode, computed only when one starts.
-        new = lazy_where(over, self._initial_state, reset_key, self.advance(state, action))
+        new = lazy_where(over, self._initial_state, reset_key,
+                         self.advance(state, action, loops))
         ended = self.episode_over(new, params)
         terminated = new.outcome != Outcome.RUNNING
         step_type = jnp.where(over, dm_env.StepType.FIRST,
@@ -185,11 +190,12 @@ class Simulator:
         return apply_action(state, action, self.renderer, self.card_table,
                             economy=self.game.has_production)
 
-    def advance(self, state: EnvState, action: DenseAction) -> EnvState:
-        """Applies the action and runs `step_mul` game loops, with no auto-reset: the
-        state part of `step` (the SC2 API's `RequestAction` then `RequestStep`)."""
+    def advance(self, state: EnvState, action: DenseAction, loops=None) -> EnvState:
+        """Applies the action and runs `step_mul` (or `loops`, as in `step`) game loops,
+        with no auto-reset: the state part of `step` (the SC2 API's `RequestAction` then
+        `RequestStep`)."""
         _, step_key = threefry.split(state.key)
-        return self._advance(state.replace(key=step_key), action)
+        return self._advance(state.replace(key=step_key), action, loops)
 
     def episode_over(self, state: EnvState, params: EnvParams):
         """bool: the episode has ended (a LAST timestep was, or will be, emitted)."""
@@ -271,13 +277,13 @@ class Simulator:
             map_state=map_state, key=state_key)
         return self._explore(state)
 
-    def _advance(self, state: EnvState, action: DenseAction) -> EnvState:
+    def _advance(self, state: EnvState, action: DenseAction, count=None) -> EnvState:
         state = self.act(state, action)
         game = self.game
         buildable = self.renderer.buildable
 
-        def one_loop(carry, _):
-            state, heading = carry
+        def one_loop(_, carry):
+            state, heading, last = carry
             running = state.outcome == Outcome.RUNNING
             key, loop_key = threefry.split(state.key)
             units, events = game_loop(state.units, loop_key, game.geometry.playable,
@@ -313,17 +319,19 @@ class Simulator:
             turns = running & turned(events.heading)
             heading = jnp.where(turns[:, None], events.heading, heading)
             heading = jnp.where((new.units.tag == state.units.tag)[:, None], heading, 0.0)
-            return (new, heading), new.units.alive[-1]
+            return new, heading, last | new.units.alive[-1]
 
         def loops(state: EnvState):
             """The game loops, and whether the units' last slot stayed free unless it
-            was in use from the start (`_on_leading_slots`)."""
+            was in use from the start (`_on_leading_slots`). A static count is a scan;
+            a run-time one a while loop with the same body."""
             start = state.units.alive[-1]
-            (state, heading), last = jax.lax.scan(
-                one_loop, (state, jnp.zeros_like(state.units.pos)), None, length=self.step_mul)
+            state, heading, last = jax.lax.fori_loop(
+                0, self.step_mul if count is None else count, one_loop,
+                (state, jnp.zeros_like(state.units.pos), jnp.bool_(False)))
             units = state.units
             state = state.replace(units=units.replace(facing=facing_of(heading, units.facing)))
-            return state, ~jnp.any(last) | start
+            return state, ~last | start
 
         sizes = self.game.slot_sizes if self.use_slot_sizes else None
         if sizes is None:

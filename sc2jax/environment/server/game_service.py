@@ -19,15 +19,16 @@ observations are the game's bit for bit, and each observation's `actions` are th
 the player made in the step before it, with their arguments, as the real game reports a
 replay's actions.
 
-A step runs exactly as `Simulator.step` does for the same actions and keys, so a client
-sees the in-process simulator's episodes bit for bit: `random_seed` seeds the episode
-keys as `SC2Env(seed=...)` does, each game start (join or restart) draws the next key.
+A step runs exactly as `Simulator.step` does for the same actions, keys and step_mul, so
+a client sees the in-process simulator's episodes bit for bit: `random_seed` seeds the
+episode keys as `SC2Env(seed=...)` does, each game start (join or restart) draws the next
+key. The programs are compiled once per map and format, for every step count, and a
+bounded number are kept (`programs.py`).
 Anything the simulator does not do is answered with `Response.error`.
 """
 
 from __future__ import annotations
 
-import functools
 import logging
 import pathlib
 
@@ -35,9 +36,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from sc2jax.environment.engine.compiled import compiled, simulator
 from sc2jax.environment.engine.minigames import MAPS, get_map
-from sc2jax.environment.engine.observation import api_units
 from sc2jax.environment.engine.rules.state import Outcome
 from sc2jax.environment.engine.rules.units import UNIT_DATA, UnitType
 from sc2jax.environment.engine.simulator import EnvParams
@@ -48,13 +47,11 @@ from sc2jax.environment.interface.observation_tables import TERRAN
 from sc2jax.environment.sc2api import proto_actions, proto_observation
 from sc2jax.environment.sc2api.controller import RequestError
 from sc2jax.environment.sc2api.protos import sc2api
+from sc2jax.environment.server.programs import Programs, programs
 from sc2jax.environment.server.replays import Replay
 
 GAME_VERSION = "4.10.0"
 BASE_BUILD = 75689
-RESET_STEP_MUL = 8
-"""The step_mul of the simulator that starts episodes (any would do: the state does not
-depend on it; 8, PySC2's default, shares its compiled reset with SC2Env's)."""
 MAX_STEP_COUNT = 10_000
 """The most game loops one `RequestStep` may run here."""
 MAX_ACTIONS_PER_STEP = 64
@@ -101,16 +98,6 @@ def _check_replay(replay: Replay) -> None:
             validate_function_call(call, types)
 
 
-@functools.cache
-def _act(sim):
-    return jax.jit(sim.act)
-
-
-@functools.cache
-def _api_units(sim):
-    return jax.jit(lambda state: api_units(state, sim.renderer))
-
-
 class GameService:
     """One simulated game process answering SC2 API requests."""
 
@@ -121,6 +108,7 @@ class GameService:
         self._seed_key = None
         self._options = None
         self._fmt: specs.ObservationFormat | None = None
+        self._programs: Programs | None = None
         self._state = None
         self._last_observation = None
         self._pending: list[FunctionCall] = []
@@ -160,6 +148,7 @@ class GameService:
         if self.status in (_STATUS.init_game, _STATUS.in_game, _STATUS.in_replay,
                            _STATUS.ended):
             self._state, self._replay, self.status = None, None, _STATUS.launched
+            self._programs = None
 
     def _require(self, kind: str, *statuses) -> None:
         if self.status not in statuses:
@@ -245,7 +234,7 @@ class GameService:
 
     def _quit(self, request, response) -> None:
         del request, response
-        self._state, self.status = None, _STATUS.quit
+        self._state, self._programs, self.status = None, None, _STATUS.quit
 
     def _game_info(self, request, response) -> None:
         del request
@@ -329,13 +318,12 @@ class GameService:
     def _play(self, count: int, calls: list[FunctionCall]) -> None:
         """Applies `calls` (none: no_op) and runs `count` game loops."""
         calls = calls or [FunctionCall(FUNCTIONS.no_op.id, [])]
-        sim = self._simulator(count)
+        run = self._programs
         for call in calls[:-1]:
-            self._state = _act(sim)(self._state, to_dense(call, self._fmt.types))
-        # While the game runs, `Simulator.step` is `advance` then `observe`: the
-        # program `SC2Env` compiles for the same format, shared with it.
-        self._state, timestep = compiled(sim, False)[1](
-            self._state, to_dense(calls[-1], self._fmt.types), _PARAMS)
+            self._state = run.act(self._state, to_dense(call, self._fmt.types))
+        # While the game runs, `Simulator.step` is `advance` then `observe`.
+        self._state, timestep = run.step(self._state, to_dense(calls[-1], self._fmt.types),
+                                         _PARAMS, np.int32(count))
         self._last_observation = timestep.observation
         if int(self._state.outcome) != Outcome.RUNNING:
             self.status = _STATUS.ended
@@ -356,13 +344,10 @@ class GameService:
         raw_data.player.camera.x = float(self._state.camera[0])
         raw_data.player.camera.y = float(self._state.camera[1])
         if self._options.raw:
-            units = jax.device_get(_api_units(self._simulator(RESET_STEP_MUL))(self._state))
+            units = jax.device_get(self._programs.units(self._state))
             proto_observation.encode_units(units, raw_data)
 
     # Internals.
-
-    def _simulator(self, step_mul: int):
-        return simulator(self._map_name, self._fmt, step_mul, 0, 1.0, 1.0, False)
 
     def _start(self) -> None:
         """Starts an episode with the next key, as `SC2Env.reset` does."""
@@ -372,7 +357,8 @@ class GameService:
 
     def _reset(self, key) -> None:
         self._episode_key = key
-        self._state, timestep = compiled(self._simulator(RESET_STEP_MUL), False)[0](key, _PARAMS)
+        self._programs = programs(self._map_name, self._fmt)
+        self._state, timestep = self._programs.reset(key, _PARAMS)
         self._last_observation = timestep.observation
         self._pending, self._steps = [], []
 

@@ -77,6 +77,7 @@ class Sc2ApiServer:
         self.service = GameService()
         self._lock = threading.Lock()
         self._stopped = self._quitting = False
+        self._closed = threading.Event()
         self._owner: object | None = None
         self._connections, self._max_connections = 0, max_connections
         self._server = serve(self._connection, host, port, max_size=max_message_bytes,
@@ -88,16 +89,20 @@ class Sc2ApiServer:
         return self._server.socket.getsockname()[1]
 
     def serve_forever(self) -> None:
-        """Serves until `RequestQuit` (or `shutdown`)."""
+        """Serves until `RequestQuit` (or `shutdown`), and returns once every connection
+        is closed and its handler has ended (so a process can exit cleanly)."""
         self._server.serve_forever()
+        self.shutdown()
 
     def shutdown(self) -> None:
-        """Stops serving (once; later calls do nothing)."""
+        """Stops serving: closes every connection and waits for their handlers. Calls
+        after the first wait for it to finish."""
         with self._lock:
-            if self._stopped:
-                return
-            self._stopped = True
-        self._server.shutdown()
+            first, self._stopped = not self._stopped, True
+        if first:
+            self._server.shutdown()
+            self._closed.set()
+        self._closed.wait()
 
     def _check_request(self, connection, request):
         if request.path != PATH:

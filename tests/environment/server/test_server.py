@@ -4,6 +4,9 @@ checked in sc2api/test_loopback.py)."""
 
 import os
 import pathlib
+import re
+import subprocess
+import sys
 import threading
 import time
 
@@ -13,13 +16,14 @@ import websocket
 from websockets.sync.server import serve
 
 from sc2jax.environment import make
+from sc2jax.environment.interface import specs
 from sc2jax.environment.interface.functions import FUNCTIONS, FunctionCall
 from sc2jax.environment.sc2api import proto_actions
 from sc2jax.environment.sc2api.controller import Controller, RequestError
 from sc2jax.environment.sc2api.game_env import Bot, GameEnv
 from sc2jax.environment.sc2api.launcher import launch, sc2path
 from sc2jax.environment.sc2api.protos import sc2api
-from sc2jax.environment.server import Sc2ApiServer
+from sc2jax.environment.server import Sc2ApiServer, programs
 from sc2jax.environment.server import websocket as server_module
 from sc2jax.environment.server.install_layout import write_sc2path
 
@@ -151,6 +155,27 @@ def test_actions_get_honest_results_and_a_flood_is_refused(server):
         assert [result(r) for r in controller.actions([army]).result] == ["Error"]
     finally:
         controller.close()
+
+
+def test_one_compiled_step_runs_every_count_and_program_sets_are_bounded(server):
+    controller = Controller.connect("127.0.0.1", server.port)
+    try:
+        _join_beacon(controller)
+        loops = 0
+        for count in (1, 7, 300, 8, 10_000):
+            loops += count
+            assert controller.step(count).simulation_loop == loops
+        assert server.service._programs.step._cache_size() == 1
+    finally:
+        controller.close()
+    # Program sets are only made here, not compiled (that happens at their first call).
+    formats = [specs.ObservationFormat(17 + i, 17) for i in range(programs.MAX_FORMATS + 1)]
+    first = programs.programs("MoveToBeacon", formats[0])
+    assert programs.programs("MoveToBeacon", formats[0]) is first
+    for fmt in formats[1:]:
+        programs.programs("MoveToBeacon", fmt)
+    assert programs.programs.cache_info().currsize == programs.MAX_FORMATS
+    assert programs.programs("MoveToBeacon", formats[0]) is not first  # Dropped, remade.
 
 
 def test_a_camera_width_that_is_not_a_number_is_refused(server):
@@ -429,3 +454,21 @@ def test_the_server_takes_the_games_command_line_and_writes_the_layout(tmp_path)
     assert (tmp_path / "layout" / "Versions" / "Base75689" / "SC2_x64").is_file()
     with pytest.raises(SystemExit, match="--port 70000 is outside 0..65535"):
         server_module.main(["--port", "70000"])
+
+
+def test_quit_with_another_connection_open_exits_the_process_cleanly():
+    server = subprocess.Popen([sys.executable, "-m", "sc2jax.environment.server", "--port",
+                               "0"], stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                              text=True)
+    try:
+        port = int(re.search(r":(\d+)/sc2api", server.stdout.readline()).group(1))
+        idle = Controller.connect("127.0.0.1", port)  # Open, silent, never closed by us.
+        quitting = Controller.connect("127.0.0.1", port)
+        assert idle.ping().base_build and quitting.ping().base_build
+        quitting.quit()
+        assert server.wait(timeout=30) == 0
+        assert "Traceback" not in server.stderr.read()
+        with pytest.raises(ConnectionError):
+            idle.ping()
+    finally:
+        server.kill()
