@@ -28,13 +28,21 @@ import pytest
 
 from sc2jax.environment import FUNCTIONS, ActionResult, FeatureUnit, make, to_dense
 from sc2jax.environment.agents import random_action
+from sc2jax.environment.engine.compiled import simulator
 from sc2jax.environment.engine.minigames import get_map
 from sc2jax.environment.engine.render import sight_grid
 from sc2jax.environment.engine.rules import dynamics
 from sc2jax.environment.engine.rules.dynamics import LoopEvents, colliding, game_loop
 from sc2jax.environment.engine.rules.state import DEFAULT_FACING, Order, Owner, Units
 from sc2jax.environment.engine.rules.units import UNIT_DATA, UnitType
-from tests.environment.helpers import PARAMS, SMALL_MAKE, assert_trees_equal, compiled, small_sim
+from tests.environment.helpers import (
+    PARAMS,
+    SMALL_MAKE,
+    assert_trees_equal,
+    compiled,
+    random_play,
+    small_sim,
+)
 
 # Every stepped scene is on FindAndDefeatZerglings (28 slots, free camera), so the file
 # compiles one map's step (shared with the other test files). The other two maps' scripts
@@ -169,6 +177,21 @@ def move_scene(marine_xy=START):
         (4, UnitType.ZERGLING, Owner.ENEMY, FAR, False),
     ])
     return step, set_unit(state, 4, order=(Order.HOLD, FAR))
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("map_name", ["CollectMineralsAndGas", "DefeatRoaches"])
+def test_a_run_time_loop_count_steps_as_that_step_mul_does(map_name):
+    # The SC2-API server runs every `RequestStep.count` with one program.
+    sim = small_sim(map_name)
+    dynamic = jax.jit(lambda state, action, loops: sim.step(state, action, PARAMS, loops=loops))
+    for loops in (3, 17):  # Below and above the simulator's 8.
+        fixed = simulator(map_name, sim.fmt, loops, 0, 1.0, 1.0, False)
+        played = list(random_play(fixed, seed=loops, steps=6))
+        state = played[0][0]
+        for action, want_state, want_timestep in played[1:]:
+            state, timestep = dynamic(state, action, np.int32(loops))
+            assert_trees_equal((state, timestep), (want_state, want_timestep))
 
 
 def test_pixel_centre_is_pysc2s_transform():
