@@ -1,5 +1,5 @@
 """The server against random well-formed requests (hypothesis): whatever two clients send,
-every request gets a parseable reply, a third client then plays an episode's steps, and
+every request gets a parseable reply, a third client then plays a whole episode, and
 the memory stays bounded.
 
 Requests are filled field by field from their descriptors. Step counts are any (one
@@ -116,14 +116,19 @@ def _join(server, client) -> None:
 
 
 def _play(server) -> None:
-    """A correct client creates a game, joins, acts and steps, and leaves."""
+    """A correct client creates a game, joins, plays it to its end, and leaves."""
     ask = functools.partial(_ask, server, GOOD)
     _join(server, GOOD)
     army = proto_actions.to_proto(FunctionCall(FUNCTIONS.select_army.id, [[0]]))
-    for _ in range(3):
+    loops = 0
+    while True:
         ask(action=sc2api.RequestAction(actions=[army]))
-        ask(step=sc2api.RequestStep(count=8))
-        assert ask(observation=sc2api.RequestObservation()).observation.observation.game_loop
+        loops += 256
+        assert ask(step=sc2api.RequestStep(count=256)).step.simulation_loop == loops
+        observed = ask(observation=sc2api.RequestObservation()).observation
+        assert observed.observation.game_loop == loops
+        if observed.player_result:
+            break
     ask(leave_game=sc2api.RequestLeaveGame())
 
 

@@ -14,8 +14,8 @@ from sc2jax.environment.sc2api import proto_actions
 from sc2jax.environment.sc2api.controller import Controller, RequestError
 from sc2jax.environment.sc2api.protos import sc2api
 
-pytestmark = pytest.mark.skipif(not pathlib.Path("/proc/self/statm").exists(),
-                                reason="reads the memory from /proc")
+pytestmark = [pytest.mark.slow, pytest.mark.skipif(
+    not pathlib.Path("/proc/self/statm").exists(), reason="reads the memory from /proc")]
 ARMY = proto_actions.to_proto(FunctionCall(FUNCTIONS.select_army.id, [[0]]))
 MEMORY_BOUND_MB = 200
 """The most the (in-process) server's memory may grow over a test, compiled programs of
@@ -78,7 +78,6 @@ def test_clients_gone_in_the_middle_of_a_request_leave_their_games(server):
     assert _rss_mb() - before < MEMORY_BOUND_MB
 
 
-@pytest.mark.slow
 def test_many_clients_at_once_are_served_in_turn():
     from sc2jax.environment.server import Sc2ApiServer
     server = Sc2ApiServer(port=0)  # Its own, so that its connections are all this test's.
