@@ -1,6 +1,7 @@
 """dm_env environments over the simulator, and `make`.
 
-- `SC2Env`: one environment, PySC2's observation layout, takes a `FunctionCall` (or an
+- `SC2Env`: one environment, PySC2's observation layout with PySC2's names
+  (`obs.feature_screen.player_relative`, `layout.named`), takes a `FunctionCall` (or an
   unbatched `DenseAction`).
 - `BatchedSC2Env`: `num_envs` environments stepped together in one compiled call, the
   padded layout with a leading batch dimension, takes a batched `DenseAction` or a list
@@ -23,10 +24,11 @@ import numpy as np
 from sc2jax.environment.engine.compiled import compiled, simulator
 from sc2jax.environment.engine.minigames import MAPS, check_map
 from sc2jax.environment.engine.simulator import EnvParams, Simulator
+from sc2jax.environment.engine.xla.compilation_cache import use_compilation_cache
 from sc2jax.environment.interface import specs
 from sc2jax.environment.interface.dense import DenseAction, check_dense_action, to_dense
 from sc2jax.environment.interface.functions import FUNCTIONS, FunctionCall, validate_function_call
-from sc2jax.environment.interface.layout import to_pysc2_layout
+from sc2jax.environment.interface.layout import named, to_pysc2_layout
 
 
 class _Base(dm_env.Environment):
@@ -117,7 +119,8 @@ class SC2Env(_Base):
         return dm_env.TimeStep(
             step_type=dm_env.StepType(int(timestep.step_type)),
             reward=float(timestep.reward), discount=float(timestep.discount),
-            observation=to_pysc2_layout(timestep.observation, self.simulator.map_name))
+            observation=named(to_pysc2_layout(timestep.observation, self.simulator.map_name),
+                              self.simulator.fmt))
 
 
 class BatchedSC2Env(_Base):
@@ -267,6 +270,10 @@ def make(map_name: str, screen_size: specs.Size = 64, minimap_size: specs.Size =
       An `SC2Env` (num_envs None), a `BatchedSC2Env`, or for backend "sc2" a
       `game_env.GameEnv`.
 
+    The simulator's programs go to JAX's persistent compilation cache
+    (`engine.xla.compilation_cache`; `SC2JAX_COMPILATION_CACHE=0` turns it off), so a
+    later process skips their compilation.
+
     Raises:
       ValueError: for an unknown map or a bad setting, before anything is compiled.
     """
@@ -284,6 +291,7 @@ def make(map_name: str, screen_size: specs.Size = 64, minimap_size: specs.Size =
     if bot is not None or sc2path is not None:
         raise ValueError("bot and sc2path apply to backend='sc2' only")
     check_map(map_name)
+    use_compilation_cache()
     fmt = specs.ObservationFormat(
         screen_size=screen_size, minimap_size=minimap_size,
         screen_features=None if screen_features is None else tuple(screen_features),

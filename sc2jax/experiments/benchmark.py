@@ -31,7 +31,7 @@ Optionally (`--smax`), JaxMARL's SMAX (an optional, benchmark-only dependency:
 `pip install jaxmarl`) is measured the same way on its "3m" scenario, with random
 available actions for the three allied marines against its heuristic enemy.
 
-    python -m sc2jax.experiments.benchmark
+    python -m sc2jax.experiments.benchmark      # a quick set: 2 maps, 1 and 64 envs
     python -m sc2jax.experiments.benchmark --maps=MoveToBeacon --num_envs=1,64 \
         --threads=1,0 --output=docs/benchmarks.md
 """
@@ -79,15 +79,19 @@ from sc2jax.experiments.benchmarking.rollouts import (
 from sc2jax.experiments.reporting.markdown import write_section
 
 FLAGS = flags.FLAGS
-flags.DEFINE_list("maps", list(MAPS), "Mini-games to measure.")
-flags.DEFINE_list("num_envs", ["1", "64", "1024"], "Environment counts (one process each).")
+QUICK_MAPS = ["MoveToBeacon", "FindAndDefeatZerglings"]
+FULL_RUN = ("python -m sc2jax.experiments.benchmark --maps=" + ",".join(MAPS)
+            + " --num_envs=1,16,64,1024 --devices=1,0 --repeats=5")
+flags.DEFINE_list("maps", QUICK_MAPS, "Mini-games to measure (default: a quick "
+                  "representative pair; all seven: " + ",".join(MAPS) + ").")
+flags.DEFINE_list("num_envs", ["1", "64"], "Environment counts (one process each).")
 flags.DEFINE_integer("screen_size", 64, "Feature-screen resolution.")
 flags.DEFINE_integer("minimap_size", 64, "Feature-minimap resolution.")
 flags.DEFINE_integer("step_mul", 8, "Game loops per agent step.")
 flags.DEFINE_integer("steps", 0, "Agent steps per timed call (K); 0 picks "
                      "max(16, min(2048, 8192 // num_envs)).")
 flags.DEFINE_integer("repeats", 3, "Timed calls per measurement (the median is reported).")
-flags.DEFINE_list("devices", ["1", "0"], "Device counts to split the environments over, each "
+flags.DEFINE_list("devices", ["1"], "Device counts to split the environments over, each "
                   "timed (0: every local device; on a CPU, one host device per core). An "
                   "environment count that a device count does not divide runs on one device.")
 flags.DEFINE_integer("small_loop_bytes", SMALL_LOOP_BYTES, "On a CPU, while loops that touch "
@@ -247,6 +251,9 @@ def _each_thread_count(threads: Sequence[int], counts: Sequence[int], settings,
             section = _section(results, smax, command, machines[0], machines[-1], notes,
                                progress)
     print(section)
+    if not any(FLAGS[name].present for name in ("maps", "num_envs", "devices")):
+        print(f"\nThat was the quick set. The full run (every map, 1 to 1,024 environments, "
+              f"one device and all; about 45 minutes and 12 GB on 2 cores):\n  {FULL_RUN}")
 
 
 def _section(results, smax, command: str, before: str, after: str, notes: list,

@@ -2,14 +2,17 @@
 
 The padded layout (`specs.observation_spec(fmt, padded=True)`) gives every observation a
 fixed shape, so that batches stack; PySC2's layout trims variable-length lists to their
-entries and gives `available_actions` as a list of ids.
+entries and gives `available_actions` as a list of ids. `named` gives PySC2's layout
+named access, as PySC2 does (`obs["feature_screen"].player_relative`).
 """
 
 from __future__ import annotations
 
 import numpy as np
 
+from sc2jax.environment.interface import observation_tables as tables
 from sc2jax.environment.interface import specs
+from sc2jax.environment.interface.named import NamedDict, NamedNumpyArray
 
 _UNIT_ROW_KEYS = ("single_select", "multi_select", "build_queue", "cargo", "feature_units",
                   "raw_units")
@@ -31,6 +34,37 @@ def to_pysc2_layout(padded: dict, map_name: str) -> dict:
         out[key] = out[key][out[key] != 0]
     out["available_actions"] = np.flatnonzero(out["available_actions"]).astype(np.int32)
     out["map_name"] = map_name
+    return out
+
+
+_UNIT_ROWS = (None, tables.UnitLayer)
+_NAMES = {
+    "player": (tables.Player,),
+    "score_cumulative": (tables.ScoreCumulative,),
+    "score_by_category": (tables.ScoreByCategory, tables.ScoreCategories),
+    "score_by_vital": (tables.ScoreByVital, tables.ScoreVitals),
+    "single_select": _UNIT_ROWS, "multi_select": _UNIT_ROWS, "build_queue": _UNIT_ROWS,
+    "cargo": _UNIT_ROWS,
+    "production_queue": (None, tables.ProductionQueue),
+    "control_groups": (None, tables.ControlGroup),
+    "feature_units": (None, tables.FeatureUnit),
+    "raw_units": (None, tables.FeatureUnit),
+}
+"""The names of each observation's dimensions, beside the feature layers'."""
+
+
+def named(obs: dict, fmt: specs.ObservationFormat) -> NamedDict:
+    """One observation in PySC2's layout with PySC2's names: a `NamedDict` of
+    `NamedNumpyArray`s. The layers are named by the format's own layers (so
+    `feature_screen.player_relative` is right with any subset of layers); the tables by
+    `observation_tables`' enums; the unit rows' columns by `UnitLayer` or `FeatureUnit`.
+    The arrays are views of `obs`'s."""
+    layers = {"feature_screen": ([f.name for f in fmt.screen_layers],),
+              "feature_minimap": ([f.name for f in fmt.minimap_layers],)}
+    out = NamedDict()
+    for key, value in obs.items():
+        names = layers.get(key) or _NAMES.get(key)
+        out[key] = value if isinstance(value, str) else NamedNumpyArray(value, names or ())
     return out
 
 

@@ -107,10 +107,30 @@ class ObservationFormat:
     def minimap_layers(self):
         return select_layers(MINIMAP_FEATURES, self.minimap_features)
 
+    def screen_index(self, name: str) -> int:
+        """The index of screen layer `name` in this format's `feature_screen` (PySC2's
+        `SCREEN_FEATURES.<name>.index` holds only with all 27 layers).
+
+        Raises:
+          ValueError: for a layer this format does not render, naming those it does.
+        """
+        return _layer_index(self.screen_layers, name, "screen")
+
+    def minimap_index(self, name: str) -> int:
+        """The index of minimap layer `name` in this format's `feature_minimap`."""
+        return _layer_index(self.minimap_layers, name, "minimap")
+
     @property
     def types(self):
         """The argument types resolved to this format's resolutions."""
         return resolve_types(self.screen_size, self.minimap_size)
+
+
+def _layer_index(layers, name: str, layer_set: str) -> int:
+    names = [layer.name for layer in layers]
+    if name not in names:
+        raise ValueError(f"{layer_set} layer {name!r} is not in this format; it has {names}")
+    return names.index(name)
 
 
 # Maximum lengths of PySC2's variable-length fields, and their padded lengths.

@@ -34,7 +34,7 @@ from sc2jax.checks import check_known
 from sc2jax.environment.interface import specs
 from sc2jax.environment.interface.dense import DenseAction, check_dense_action, from_dense
 from sc2jax.environment.interface.functions import FUNCTIONS, FunctionCall, validate_function_call
-from sc2jax.environment.interface.layout import to_padded_layout
+from sc2jax.environment.interface.layout import named, to_padded_layout
 from sc2jax.environment.interface.map_names import MINI_GAMES as MAPS
 from sc2jax.environment.sc2api import proto_actions, proto_observation
 from sc2jax.environment.sc2api.controller import Controller
@@ -283,9 +283,9 @@ class GameEnv(dm_env.Environment):
         if response.observation.game_loop == END_OF_GAME_LOOP and self._last_obs is not None:
             observation = self._last_obs  # The game's end-of-game stub.
         else:
-            observation = proto_observation.decode(
+            observation = named(proto_observation.decode(
                 response, self.fmt, self._game_map_name, self._races, self._hide_specific,
-                self._map_size)
+                self._map_size), self.fmt)
         self._last_obs = observation
         return observation, result
 

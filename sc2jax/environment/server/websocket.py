@@ -34,6 +34,7 @@ from __future__ import annotations
 import argparse
 import http
 import logging
+import socket
 import sys
 import threading
 import urllib.parse
@@ -79,7 +80,8 @@ class Sc2ApiServer:
         self._stopped = self._quitting = False
         self._closed = threading.Event()
         self._owner: object | None = None
-        self._connections, self._max_connections = 0, max_connections
+        self._open: set[ServerConnection] = set()
+        self._max_connections = max_connections
         self._server = serve(self._connection, host, port, max_size=max_message_bytes,
                              process_request=self._check_request, compression=None,
                              ping_interval=None, close_timeout=2)
@@ -95,11 +97,18 @@ class Sc2ApiServer:
         self.shutdown()
 
     def shutdown(self) -> None:
-        """Stops serving: closes every connection and waits for their handlers. Calls
-        after the first wait for it to finish."""
+        """Stops serving: drops every connection (without the closing handshake, which a
+        client that stopped reading would never finish) and waits for their handlers.
+        Calls after the first wait for it to finish."""
         with self._lock:
             first, self._stopped = not self._stopped, True
+            connections = list(self._open)
         if first:
+            for connection in connections:
+                try:
+                    connection.socket.shutdown(socket.SHUT_RDWR)
+                except OSError:
+                    pass  # Already closed.
             self._server.shutdown()
             self._closed.set()
         self._closed.wait()
@@ -111,7 +120,7 @@ class Sc2ApiServer:
         if origin is not None and urllib.parse.urlsplit(origin).hostname not in LOOPBACK:
             return connection.respond(http.HTTPStatus.FORBIDDEN,
                                       f"connections from pages of {origin} are refused\n")
-        if self._connections >= self._max_connections:
+        if len(self._open) >= self._max_connections:
             return connection.respond(http.HTTPStatus.SERVICE_UNAVAILABLE,
                                       f"{self._max_connections} connections are open; the "
                                       f"most this server takes\n")
@@ -119,12 +128,14 @@ class Sc2ApiServer:
 
     def _connection(self, connection: ServerConnection) -> None:
         with self._lock:
-            self._connections += 1
+            if self._stopped:
+                return
+            self._open.add(connection)
         try:
             self._serve(connection)
         finally:
             with self._lock:
-                self._connections -= 1
+                self._open.discard(connection)
             self.gone(connection)
 
     def gone(self, client: object) -> None:

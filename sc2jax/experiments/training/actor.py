@@ -15,7 +15,6 @@ there is ignored by the game and, with a value close to 0, carries almost no gra
 
 from __future__ import annotations
 
-import difflib
 from collections.abc import Callable, Sequence
 from typing import Any, NamedTuple
 
@@ -30,6 +29,7 @@ from sc2jax.checks import check_positive_int
 from sc2jax.environment.engine.simulator import Simulator
 from sc2jax.environment.interface.dense import DenseAction
 from sc2jax.environment.interface.functions import FUNCTIONS, NUM_FUNCTIONS
+from sc2jax.environment.interface.suggest import did_you_mean
 from sc2jax.losses.learner_loss import Trajectory
 from sc2jax.networks import policy
 from sc2jax.networks.factory import act as feed_forward_act
@@ -67,8 +67,7 @@ def function_mask(functions: Sequence[int | str] | None) -> np.ndarray | None:
     mask = np.zeros(NUM_FUNCTIONS, bool)
     for function in functions:
         if function not in FUNCTIONS:
-            close = difflib.get_close_matches(str(function), [f.name for f in FUNCTIONS], n=3)
-            hint = f"; did you mean {', '.join(close)}?" if close else ""
+            hint = did_you_mean(function, [f.name for f in FUNCTIONS])
             raise ValueError(f"unknown function {function!r}; give PySC2 names or ids "
                              f"0..{NUM_FUNCTIONS - 1}{hint}")
         mask[FUNCTIONS[function].id] = True

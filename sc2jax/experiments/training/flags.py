@@ -9,13 +9,13 @@ from __future__ import annotations
 
 import dataclasses
 import logging
-import os
 import tempfile
 
 import jax
 from absl import flags
 
 from sc2jax.checks import check_not_a_file
+from sc2jax.environment.engine.xla.compilation_cache import ENV, cache_dir
 from sc2jax.environment.interface.map_names import MINI_GAMES
 from sc2jax.experiments.training.config import BACKENDS, TrainConfig, parse_names
 from sc2jax.experiments.training.presets import PRESETS, get_preset
@@ -25,10 +25,10 @@ FLAGS = flags.FLAGS
 _DEFAULTS = TrainConfig()
 
 flags.DEFINE_string(
-    "compilation_cache", os.path.join(os.path.expanduser("~"), ".cache", "sc2jax", "jax"),
+    "compilation_cache", str(cache_dir() or ""),
     "JAX's persistent compilation cache: compiled programs are written here and reused by "
     "later runs of the same programs, so their first steps skip compilation. '' turns it "
-    "off.")
+    f"off. The default follows ${ENV} (0: off; a folder), else ~/.cache/sc2jax/jax.")
 
 
 def start_command() -> None:

@@ -1,0 +1,1 @@
+"""PySC2's `pysc2.agents`: the base agent and the random agent."""

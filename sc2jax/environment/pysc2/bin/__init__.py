@@ -1,0 +1,1 @@
+"""PySC2's `pysc2.bin`: the agent runner."""
