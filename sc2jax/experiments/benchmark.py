@@ -213,7 +213,15 @@ def main(argv: Sequence[str]) -> None:
         if FLAGS.results_json:
             _write_json(FLAGS.results_json, {"results": results, "smax": smax,
                                              "notes": notes, "machine": before})
+    _report(section)
+
+
+def _report(section: str) -> None:
+    """Prints the results, and after the default quick set how to run the full one."""
     print(section)
+    if not any(FLAGS[name].present for name in ("maps", "num_envs", "devices")):
+        print(f"\nThat was the quick set. The full run (every map, 1 to 1,024 environments, "
+              f"one device and all; about 45 minutes and 12 GB on 2 cores):\n  {FULL_RUN}")
 
 
 def _write_json(path: str, data: dict) -> None:
@@ -250,10 +258,7 @@ def _each_thread_count(threads: Sequence[int], counts: Sequence[int], settings,
                 f"Partial: {done} of {len(threads)} thread-pool sizes measured so far.")
             section = _section(results, smax, command, machines[0], machines[-1], notes,
                                progress)
-    print(section)
-    if not any(FLAGS[name].present for name in ("maps", "num_envs", "devices")):
-        print(f"\nThat was the quick set. The full run (every map, 1 to 1,024 environments, "
-              f"one device and all; about 45 minutes and 12 GB on 2 cores):\n  {FULL_RUN}")
+    _report(section)
 
 
 def _section(results, smax, command: str, before: str, after: str, notes: list,
