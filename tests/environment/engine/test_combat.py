@@ -353,6 +353,7 @@ def _every_slot_step():
     return jax.jit(dataclasses.replace(small_sim("DefeatRoaches"), use_slot_sizes=False).step)
 
 
+@pytest.mark.slow  # About 15-20 s on 2 cores: the fast tier stays under 3 minutes.
 def test_wave_maps_play_on_their_leading_slots_as_on_all_slots():
     """DefeatRoaches runs its game loops and observation on the roaches and the leading
     marine slots in use (`slot_sizes` 4 + (16, 64)), with room for a wave's 5

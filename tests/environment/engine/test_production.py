@@ -264,6 +264,7 @@ def test_select_idle_worker_one_and_all():
     assert (ts.observation["multi_select"][:, 0] == 45).sum() == 12
 
 
+@pytest.mark.slow  # About 15-20 s on 2 cores: the fast tier stays under 3 minutes.
 def test_build_marines_command_cards():
     state, step = start(BM)
     ui = {F.no_op.id, F.move_camera.id, F.select_point.id, F.select_rect.id,

@@ -106,6 +106,7 @@ def _wrapper_episode(num_devices: int, steps: int = 5):
     return env, timesteps
 
 
+@pytest.mark.slow  # About 15-20 s on 2 cores: the fast tier stays under 3 minutes.
 def test_batched_wrapper_split_over_two_devices_plays_as_one_device_does():
     two_env, two = _wrapper_episode(num_devices=2)
     assert two_env._state.units.pos.sharding.device_set == set(jax.devices()[:2])
