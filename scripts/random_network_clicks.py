@@ -54,8 +54,8 @@ def main():
     obs1, obs2 = first.observation, selected.observation
     layer = [f.name for f in fmt.screen_layers].index("player_relative")
     relative = np.asarray(obs2["feature_screen"][:, layer])  # [E, H, W]
-    available1 = np.asarray(obs1["available_actions"])
-    available2 = np.asarray(obs2["available_actions"])
+    available1 = np.asarray(obs1["available_actions_mask"])
+    available2 = np.asarray(obs2["available_actions_mask"])
     print(f"{res}x{res}: beacon pixels per episode "
           f"{(relative == PlayerRelative.NEUTRAL).sum((1, 2)).tolist()}")
 

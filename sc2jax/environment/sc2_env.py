@@ -114,7 +114,7 @@ class SC2Env(_Base):
 
     def _convert(self, timestep) -> dm_env.TimeStep:
         timestep = jax.device_get(timestep)
-        self._available = timestep.observation["available_actions"]
+        self._available = timestep.observation["available_actions_mask"]
         self._last_step_type = timestep.step_type
         return dm_env.TimeStep(
             step_type=dm_env.StepType(int(timestep.step_type)),
@@ -187,7 +187,7 @@ class BatchedSC2Env(_Base):
 
     def _convert(self, timestep) -> dm_env.TimeStep:
         timestep = jax.device_get(timestep)
-        self._available = timestep.observation["available_actions"]
+        self._available = timestep.observation["available_actions_mask"]
         self._last_step_type = np.asarray(timestep.step_type)
         return timestep
 

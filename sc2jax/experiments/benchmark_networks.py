@@ -62,7 +62,7 @@ def _setup(name: str, size: int, t: int, b: int):
         scales = np.array([f.scale for f in layers]).reshape(-1, 1, 1)
         obs[key] = (rng.random((t + 1, b) + spec[key].shape) * scales).astype(np.int32)
     obs["player"] = rng.integers(0, 1000, (t + 1, b, 11), dtype=np.int32)
-    obs["available_actions"] = np.ones((t + 1, b, 573), bool)
+    obs["available_actions_mask"] = np.ones((t + 1, b, 573), bool)
     obs = {k: jnp.asarray(v) for k, v in obs.items()}
     first = jnp.zeros((t + 1, b), bool)
     if name == "fullyconv_lstm":

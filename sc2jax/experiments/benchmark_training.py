@@ -56,7 +56,7 @@ def measure(config: TrainConfig, repeats: int) -> dict:
             env_state, ts = carry
             keys = jax.random.split(key, config.num_envs)
             action = jax.vmap(lambda kk, a: random_action(kk, a, types))(
-                keys, ts.observation["available_actions"])
+                keys, ts.observation["available_actions_mask"])
             step = lambda s, a, o: sim.step(s, a, previous=o)  # noqa: E731
             return jax.vmap(step)(env_state, action, ts.observation), None
 

@@ -82,7 +82,7 @@ def make_actor_critic_loss(network: nn.Module, *, value_weight: float = 0.5,
         out = unroll(network, params, batch.observation, action, batch.first,
                      batch.initial_carry)
         out_tm1 = jax.tree.map(lambda x: x[:t], out)
-        available = batch.observation["available_actions"][:t]
+        available = batch.observation["available_actions_mask"][:t]
         log_pi = policy.log_prob(out_tm1, batch.action, available).total
         ent = policy.entropy(out_tm1, available)
         arg_entropy = jnp.stack(ent.arguments, axis=-1)

@@ -154,7 +154,7 @@ def make_supervised_loss(network: nn.Module, *, value_weight: float = 1.0
 
     def loss_fn(params: Any, batch: SupervisedBatch) -> tuple[jax.Array, dict]:
         out = network.apply(params, batch.observation, batch.action)
-        available = batch.observation["available_actions"]
+        available = batch.observation["available_actions_mask"]
         res = supervised_loss(out, batch.action, available, batch.outcome,
                               value_weight=value_weight)
         metrics = {**res._asdict(), **supervised_metrics(out, batch.action, available,

@@ -139,7 +139,7 @@ class ARFullyConv(nn.Module):
         """Samples a⁰ from the masked function distribution, then each argument in turn.
 
         Args:
-          obs: padded observations [B, ...], including available_actions [B, F].
+          obs: padded observations [B, ...], including available_actions_mask [B, F].
           key: a PRNG key, or None for greedy choices at every level.
           temperature: softmax temperature (> 0).
 
@@ -154,7 +154,7 @@ class ARFullyConv(nn.Module):
             sizes = ((self.spec.num_functions,),) + tuple(
                 (s[0] * s[1],) if len(s) == 2 else s for s in self.spec.argument_sizes)
             noise = gumbel_noise(key, function_logits.shape[:-1], sizes)
-        masked = mask_function_logits(function_logits, jnp.asarray(obs["available_actions"]))
+        masked = mask_function_logits(function_logits, jnp.asarray(obs["available_actions_mask"]))
         function = choose(None if key is None else noise[0][0], masked, temperature)
         args, values = self._arguments(state, h, function, None,
                                        None if key is None else noise[1:], temperature)

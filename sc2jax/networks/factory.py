@@ -67,7 +67,7 @@ def act(network: nn.Module, params: Any, key: jax.Array | None, obs: Mapping[str
       network: an `AtariNet`, `FullyConv` or `ARFullyConv`.
       params: its parameters.
       key: a PRNG key or None.
-      obs: padded observations [B, ...] with available_actions [B, F].
+      obs: padded observations [B, ...] with available_actions_mask [B, F].
       temperature: softmax temperature (> 0).
 
     Returns:
@@ -83,4 +83,4 @@ def act(network: nn.Module, params: Any, key: jax.Array | None, obs: Mapping[str
     if isinstance(network, ARFullyConv):
         return network.apply(params, obs, key, temperature, method="sample")
     out = network.apply(params, obs)
-    return policy.sample(key, out, obs["available_actions"], temperature), out
+    return policy.sample(key, out, obs["available_actions_mask"], temperature), out

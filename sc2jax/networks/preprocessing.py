@@ -128,7 +128,7 @@ def nonspatial_features(spec: NetworkSpec, obs: Mapping[str, jax.Array]) -> jax.
 
 def spatial_inputs(spec: NetworkSpec, obs: Mapping[str, jax.Array]) -> tuple[jax.Array, jax.Array]:
     """Checks and returns (feature_screen, feature_minimap), each [B, C, y, x]."""
-    for key in ("feature_screen", "feature_minimap", "available_actions"):
+    for key in ("feature_screen", "feature_minimap", "available_actions_mask"):
         if key not in obs:
             raise ValueError(f"observation has no {key!r}; keys present: {sorted(obs)}")
     (sx, sy), (mx, my) = spec.screen_size, spec.minimap_size

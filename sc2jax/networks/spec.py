@@ -55,7 +55,7 @@ class NetworkSpec:
           fmt: the environment's `ObservationFormat` (e.g. `env.simulator.fmt`).
           nonspatial_keys: padded-observation keys of fixed-size numeric entries to use
             as non-spatial features (e.g. "player", "game_loop", "score_cumulative",
-            "available_actions").
+            "available_actions_mask").
 
         Raises:
           TypeError: if `fmt` is not an `ObservationFormat`.

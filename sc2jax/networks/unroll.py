@@ -33,7 +33,7 @@ def unroll(network: nn.Module, params: Any, observation: Mapping[str, jax.Array]
     Returns:
       `NetworkOutput` with leading dims [N, B].
     """
-    n, b = jnp.shape(observation["available_actions"])[:2]
+    n, b = jnp.shape(observation["available_actions_mask"])[:2]
     if isinstance(network, FullyConvLSTM):
         if first is None or initial_carry is None:
             raise ValueError("FullyConvLSTM needs `first` and `initial_carry`")

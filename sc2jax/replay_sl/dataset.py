@@ -93,7 +93,7 @@ def schema(settings: Settings) -> dict[str, tuple[np.dtype, tuple[int, ...]]]:
     fields = {"feature_screen": (np.uint16, (len(SCREEN_FEATURES), screen, screen)),
               "feature_minimap": (np.uint16, (len(MINIMAP_FEATURES), minimap, minimap)),
               "player": (np.int32, (len(Player),)),
-              "available_actions": (np.bool_, (NUM_FUNCTIONS,)),
+              "available_actions_mask": (np.bool_, (NUM_FUNCTIONS,)),
               "game_loop": (np.int32, ()), "value": (np.float32, ())}
     for name, example in zip(DenseAction._fields, dense_zeros(())):
         fields[f"action_{name}"] = (np.int32, np.shape(example))

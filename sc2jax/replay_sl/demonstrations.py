@@ -104,7 +104,7 @@ def _chunk_fn(sim: Simulator, act: Act):
         carry, action = act(key, carry, obs, ts.first())
         record = {"feature_screen": obs["feature_screen"].astype(jnp.uint16),
                   "feature_minimap": obs["feature_minimap"].astype(jnp.uint16),
-                  "player": obs["player"], "available_actions": obs["available_actions"],
+                  "player": obs["player"], "available_actions_mask": obs["available_actions_mask"],
                   "game_loop": obs["game_loop"][:, 0], "live": ~done,
                   **{f"action_{name}": value for name, value in action._asdict().items()}}
         state, ts = step(state, action, obs)

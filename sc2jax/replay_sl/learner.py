@@ -33,12 +33,12 @@ def to_batch(records: dict[str, np.ndarray]) -> SupervisedBatch:
     (the observation as the networks read it)."""
     action = DenseAction(*(records[f"action_{name}"].astype(np.int32)
                            for name in DenseAction._fields))
-    available = records["available_actions"].astype(bool)
+    available = records["available_actions_mask"].astype(bool)
     available[np.arange(len(available)), action.function] = True
     observation = {"feature_screen": records["feature_screen"].astype(np.int32),
                    "feature_minimap": records["feature_minimap"].astype(np.int32),
                    "player": records["player"].astype(np.int32),
-                   "available_actions": available}
+                   "available_actions_mask": available}
     return SupervisedBatch(observation, action, records["value"].astype(np.float32))
 
 

@@ -305,7 +305,7 @@ def observe_steps(table: UnitTable, labels: ActionLabels, player_id: int, view: 
 
     Returns:
       {"feature_screen": uint16 [T, 27, S, S], "feature_minimap": uint16 [T, 11, M, M],
-       "player": int32 [T, 11], "available_actions": bool [T, 573]} for T = len(steps).
+       "player": int32 [T, 11], "available_actions_mask": bool [T, 573]} for T = len(steps).
     """
     # One more step than asked: `available_actions` unites a step's and the next's.
     more = range(steps.start, min(steps.stop + 1, len(labels.steps)))
@@ -318,7 +318,7 @@ def observe_steps(table: UnitTable, labels: ActionLabels, player_id: int, view: 
     cameras = np.asarray(labels.cameras[steps.start:steps.stop], np.float32)
     obs = render(table, now, loops[:n], points, cameras, chosen[:n], player_id, view)
     obs["player"] = player_vectors(table, now, loops[:n], player_id)
-    obs["available_actions"] = available_actions(at, chosen, obs["player"], player_id, cards)
+    obs["available_actions_mask"] = available_actions(at, chosen, obs["player"], player_id, cards)
     return obs
 
 

@@ -109,7 +109,7 @@ def playback_records(controller: Controller, data: bytes, player_id: int,
             available[obs["available_actions"]] = True
             previous = {"feature_screen": obs["feature_screen"].astype(np.uint16),
                         "feature_minimap": obs["feature_minimap"].astype(np.uint16),
-                        "player": obs["player"], "available_actions": available,
+                        "player": obs["player"], "available_actions_mask": available,
                         "game_loop": np.int32(obs["game_loop"][0]), "value": won}
             controller.step(settings.step_mul)
     finally:  # Also when the records are not all read: the game is ready for the next.

@@ -59,7 +59,7 @@ def random_play(sim: Simulator, seed: int, steps: int, start_loop: int = 0):
     yield state, ts
     for _ in range(steps):
         key, k = jax.random.split(key)
-        action = act(k, ts.observation["available_actions"])
+        action = act(k, ts.observation["available_actions_mask"])
         state, ts = step(state, action, PARAMS)
         yield action, state, ts
 

@@ -14,7 +14,7 @@ T = 2
 
 def _trajectory(name, function_ids=None):
     obs = seq_obs(11, T + 1)
-    action = random_action(12, obs["available_actions"][:T])
+    action = random_action(12, obs["available_actions_mask"][:T])
     if function_ids is not None:  # every action a no_op: no argument is used
         action = DenseAction(jnp.zeros_like(action.function), *action.arguments)
     first = jnp.zeros((T + 1, BATCH), bool).at[1, 0].set(True)

@@ -46,7 +46,7 @@ def test_table2_metrics_hand_worked():
 def test_tiny_supervised_fit_drives_the_loss_down():
     net, params = network("atari")
     obs = random_obs(21, (4,))
-    batch = SupervisedBatch(obs, random_action(22, obs["available_actions"]),
+    batch = SupervisedBatch(obs, random_action(22, obs["available_actions_mask"]),
                             outcome=jnp.array([1.0, 0.0, 1.0, 0.0]))
     loss_fn = make_supervised_loss(net, value_weight=1.0)
     opt = optax.adam(1e-3)

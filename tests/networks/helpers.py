@@ -25,7 +25,7 @@ FMT = ObservationFormat(
 SPEC = NetworkSpec.from_format(FMT)
 NAMES = ("atari", "fullyconv", "fullyconv_lstm", "arfullyconv")
 BATCH = 2
-OBS_KEYS = ("feature_screen", "feature_minimap", "player", "available_actions")
+OBS_KEYS = ("feature_screen", "feature_minimap", "player", "available_actions_mask")
 
 
 def random_obs(seed: int, batch_shape: tuple[int, ...] = (BATCH,),
@@ -46,7 +46,7 @@ def random_obs(seed: int, batch_shape: tuple[int, ...] = (BATCH,),
     out["player"] = rng.integers(0, 1000, batch_shape + spec["player"].shape, dtype=np.int32)
     available = rng.random(batch_shape + (NUM_FUNCTIONS,)) < 0.5
     available[..., 0] = True
-    out["available_actions"] = available
+    out["available_actions_mask"] = available
     return {k: jnp.asarray(v) for k, v in out.items()}
 
 

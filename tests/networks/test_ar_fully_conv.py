@@ -29,7 +29,7 @@ def _sample_and_score():
     def run(params, key, obs):
         action, out = act(net, params, key, obs)
         forced = net.apply(params, obs, action)
-        available = obs["available_actions"]
+        available = obs["available_actions_mask"]
         return (action, log_prob(out, action, available).total,
                 log_prob(forced, action, available).total)
 
@@ -68,6 +68,6 @@ def test_sampling_matches_teacher_forcing():
     net, params = network("arfullyconv")
     obs = random_obs(7)
     action, sampled, forced = _sample_and_score()(params, jax.random.key(3), obs)
-    assert bool(jnp.all(obs["available_actions"][jnp.arange(BATCH), action.function]))
+    assert bool(jnp.all(obs["available_actions_mask"][jnp.arange(BATCH), action.function]))
     # The logits the sample was drawn from are the teacher-forced ones for that action.
     np.testing.assert_allclose(sampled, forced, rtol=1e-4)

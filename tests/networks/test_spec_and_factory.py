@@ -32,7 +32,7 @@ def test_spec_rejects_bad_inputs():
         NetworkSpec.from_format(FMT, ("nope",))
     with pytest.raises(TypeError, match="ObservationFormat"):
         NetworkSpec.from_format({"screen_size": 16})
-    spec = NetworkSpec.from_format(FMT, ("player", "available_actions", "game_loop"))
+    spec = NetworkSpec.from_format(FMT, ("player", "available_actions_mask", "game_loop"))
     assert spec.nonspatial_size == 11 + 573 + 1
 
 

@@ -67,7 +67,7 @@ def test_held_out_labels_fall_inside_the_mask():
     inside, sizes = [], []
     for player_id, label in labels.items():
         steps = range(len(label.steps))
-        mask = observe_steps(table, label, player_id, view, steps, cards)["available_actions"]
+        mask = observe_steps(table, label, player_id, view, steps, cards)["available_actions_mask"]
         functions = np.asarray([s.call.function for s in label.steps])
         inside.append(mask[np.arange(len(functions)), functions])
         sizes.append(mask.sum(axis=1))

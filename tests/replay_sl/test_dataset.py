@@ -49,7 +49,7 @@ def test_conversion_writes_each_players_steps_and_skips_a_bad_replay(tmp_path):
     assert int(records[0]["action_function"]) == FUNCTIONS.move_camera.id
     # available_actions: always no_op and the camera; select_larva for the Zerg (player
     # 2, with larvae from the start), never for the Terran.
-    mask = np.stack([r["available_actions"] for r in records])
+    mask = np.stack([r["available_actions_mask"] for r in records])
     assert mask[:, [FUNCTIONS.no_op.id, FUNCTIONS.move_camera.id]].all()
     larva = mask[:, FUNCTIONS.select_larva.id]
     assert not larva[:12].any() and larva[12:].all()

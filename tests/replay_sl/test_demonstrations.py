@@ -48,11 +48,11 @@ def test_demonstrations_are_exact_and_resume(tmp_path, beacon):
     score = 0.0
     for t, record in enumerate(first):
         np.testing.assert_array_equal(record["feature_screen"], ts.observation["feature_screen"])
-        np.testing.assert_array_equal(record["available_actions"],
-                                      ts.observation["available_actions"])
+        np.testing.assert_array_equal(record["available_actions_mask"],
+                                      ts.observation["available_actions_mask"])
         assert record["game_loop"] == ts.observation["game_loop"][0] == 8 * t
         action = DenseAction(*(record[f"action_{name}"] for name in DenseAction._fields))
-        assert record["available_actions"][action.function]
+        assert record["available_actions_mask"][action.function]
         state, ts = step(state, action, ts.observation)
         score += float(ts.reward)
     assert ts.last() and score == episodes[0]["score"]

@@ -82,7 +82,7 @@ def test_a_played_back_replay_gives_the_games_observations_and_calls(tmp_path, c
         np.testing.assert_array_equal(record["feature_screen"], obs["feature_screen"])
         np.testing.assert_array_equal(record["feature_minimap"], obs["feature_minimap"])
         np.testing.assert_array_equal(record["player"], obs["player"])
-        assert sorted(np.flatnonzero(record["available_actions"])) == sorted(
+        assert sorted(np.flatnonzero(record["available_actions_mask"])) == sorted(
             obs["available_actions"])
         assert record["game_loop"] == 8 * t
         label = DenseAction(*(record[f"action_{n}"] for n in DenseAction._fields))

@@ -262,7 +262,7 @@ def observe(state: EnvState, renderer: Renderer, card_table=CARD_TABLE,
         "upgrades": jnp.zeros((specs.MAX_UPGRADES,), jnp.int32),
         "home_race_requested": jnp.array([tables.TERRAN], jnp.int32),
         "away_race_requested": jnp.zeros((1,), jnp.int32),
-        "available_actions": available_actions(units, card_table),
+        "available_actions_mask": available_actions(units, card_table),
     }
     if fmt.use_feature_units or fmt.use_raw_units:
         api = api_units(state, renderer)

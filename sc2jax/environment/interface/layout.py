@@ -1,9 +1,12 @@
 """PySC2's observation layout and the padded layout of batched environments.
 
 The padded layout (`specs.observation_spec(fmt, padded=True)`) gives every observation a
-fixed shape, so that batches stack; PySC2's layout trims variable-length lists to their
-entries and gives `available_actions` as a list of ids. `named` gives PySC2's layout
-named access, as PySC2 does (`obs["feature_screen"].player_relative`).
+fixed shape, so that batches stack, and the available functions as a bool mask of 573
+named `available_actions_mask`; PySC2's layout trims variable-length lists to their
+entries and gives `available_actions` as a list of ids, as PySC2 does. One name, one
+meaning: `FUNCTIONS.x.id in obs["available_actions"]` is right wherever that key
+exists. `named` gives PySC2's layout named access, as PySC2 does
+(`obs["feature_screen"].player_relative`).
 """
 
 from __future__ import annotations
@@ -14,13 +17,16 @@ from sc2jax.environment.interface import observation_tables as tables
 from sc2jax.environment.interface import specs
 from sc2jax.environment.interface.named import NamedDict, NamedNumpyArray
 
+MASK = "available_actions_mask"
+"""The padded layouts' name for the available functions as a mask [573] (bool)."""
 _UNIT_ROW_KEYS = ("single_select", "multi_select", "build_queue", "cargo", "feature_units",
                   "raw_units")
 
 
 def to_pysc2_layout(padded: dict, map_name: str) -> dict:
     """Converts one padded observation (numpy) to PySC2's layout: variable-length lists
-    trimmed to their entries, `available_actions` as a list of ids, plus `map_name`."""
+    trimmed to their entries, the mask as `available_actions`, a list of ids, plus
+    `map_name`."""
     out = dict(padded)
     for key in _UNIT_ROW_KEYS:
         if key in out:
@@ -32,7 +38,7 @@ def to_pysc2_layout(padded: dict, map_name: str) -> dict:
     out["last_actions"] = out["last_actions"][out["last_actions"] >= 0]
     for key in ("action_result", "alerts", "upgrades"):
         out[key] = out[key][out[key] != 0]
-    out["available_actions"] = np.flatnonzero(out["available_actions"]).astype(np.int32)
+    out["available_actions"] = np.flatnonzero(out.pop(MASK)).astype(np.int32)
     out["map_name"] = map_name
     return out
 
@@ -78,12 +84,12 @@ def to_padded_layout(obs: dict, fmt: specs.ObservationFormat) -> dict:
     """
     out = {}
     for key, spec in specs.observation_spec(fmt, padded=True).items():
-        value = np.asarray(obs[key])
-        if key == "available_actions":
+        if key == MASK:
             mask = np.zeros(spec.shape, bool)
-            mask[value] = True
+            mask[np.asarray(obs["available_actions"])] = True
             out[key] = mask
             continue
+        value = np.asarray(obs[key])
         if value.shape != spec.shape:
             if value.shape[0] > spec.shape[0] or value.shape[1:] != spec.shape[1:]:
                 raise ValueError(f"observation {key!r} of shape {value.shape} does not fit "

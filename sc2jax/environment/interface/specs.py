@@ -9,8 +9,9 @@ Two observation layouts share these specs:
 - **Padded layout** (`padded=True`): what the functional simulator and the batched
   environment return, every shape fixed so it can be jitted and vmapped. Unit
   lists are padded with zero rows (no real unit has type 0), `last_actions` with
-  -1, `action_result` and `alerts` with 0, `available_actions` is a boolean mask over
-  all function ids, and `feature_units`/`raw_units` are int32 (JAX runs without x64).
+  -1, `action_result` and `alerts` with 0, the available functions are a boolean mask
+  over all function ids named `available_actions_mask` (not PySC2's `available_actions`,
+  a list of ids), and `feature_units`/`raw_units` are int32 (JAX runs without x64).
 """
 
 from __future__ import annotations
@@ -188,8 +189,8 @@ def observation_spec(fmt: ObservationFormat = ObservationFormat(), *,
         "away_race_requested": array("away_race_requested", (1,)),
     }
     if padded:
-        out["available_actions"] = specs.BoundedArray(
-            (NUM_FUNCTIONS,), np.bool_, False, True, name="available_actions")
+        out["available_actions_mask"] = specs.BoundedArray(
+            (NUM_FUNCTIONS,), np.bool_, False, True, name="available_actions_mask")
     else:
         out["available_actions"] = VariableLengthArray(
             (NUM_FUNCTIONS,), np.dtype(np.int32), name="available_actions")

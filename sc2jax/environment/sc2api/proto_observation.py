@@ -287,7 +287,7 @@ def encode(obs: dict, fmt: specs.ObservationFormat, *, result: int | None = None
     for field in tables.Player:
         setattr(common, field.name, int(obs["player"][field]))
     observation.alerts.extend(int(a) for a in obs["alerts"][obs["alerts"] != 0])
-    for ability_id, requires_point in available_abilities(obs["available_actions"]):
+    for ability_id, requires_point in available_abilities(obs["available_actions_mask"]):
         observation.abilities.add(ability_id=ability_id, requires_point=requires_point)
     _encode_score(obs, observation.score)
     observation.raw_data.player.upgrade_ids.extend(

@@ -173,7 +173,7 @@ def sc2jax_rollout(sim: Simulator, num_envs: int, steps: int,
     def one_step(carry, _):
         state, timestep, keys = carry
         keys, action_keys = split_keys(keys, 2)
-        action = act(action_keys, timestep.observation["available_actions"], types)
+        action = act(action_keys, timestep.observation["available_actions_mask"], types)
         state, timestep = step(state, action, timestep.observation)
         return (state, timestep, keys), None
 

@@ -35,7 +35,7 @@ def make_predict(network):
     @jax.jit
     def predict(params, batch: SupervisedBatch) -> dict:
         out = network.apply(params, batch.observation, batch.action)
-        available = batch.observation["available_actions"]
+        available = batch.observation["available_actions_mask"]
         ranks = supervised_ranks(out, batch.action, available)
         # The rank among the available build commands alone (MSC's "next build" task).
         builds = mask_function_logits(out.function_logits, available & BUILD[None, :])
@@ -56,8 +56,8 @@ def gather(predict, params, batches: Iterable[dict]) -> dict[str, np.ndarray]:
         label = np.asarray(records["action_function"], np.int64)
         parts["label"].append(label)
         parts["label_available"].append(
-            np.asarray(records["available_actions"])[np.arange(len(label)), label])
-        parts["available"].append(np.asarray(batch.observation["available_actions"]))
+            np.asarray(records["available_actions_mask"])[np.arange(len(label)), label])
+        parts["available"].append(np.asarray(batch.observation["available_actions_mask"]))
         parts["game_loop"].append(np.asarray(records["game_loop"]))
         parts["outcome"].append(np.asarray(records["value"]))
         for name, value in out.items():

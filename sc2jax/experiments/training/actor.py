@@ -96,20 +96,20 @@ def actor_core(network: nn.Module, temperature: float = 1.0,
     def observe(obs: dict) -> dict:
         if mask is None:
             return obs
-        return dict(obs, available_actions=obs["available_actions"] & mask)
+        return dict(obs, available_actions_mask=obs["available_actions_mask"] & mask)
 
     if isinstance(network, FullyConvLSTM):
         def act_lstm(params, key, carry, obs, first):
             carry, out = network.apply(params, carry, obs, first, method="step")
-            action = policy.sample(key, out, obs["available_actions"], temperature)
-            return carry, action, policy.log_prob(out, action, obs["available_actions"]).total
+            action = policy.sample(key, out, obs["available_actions_mask"], temperature)
+            return carry, action, policy.log_prob(out, action, obs["available_actions_mask"]).total
 
         return ActorCore(network.initial_carry, act_lstm, observe)
 
     def act(params, key, carry, obs, first):
         del first
         action, out = feed_forward_act(network, params, key, obs, temperature)
-        return carry, action, policy.log_prob(out, action, obs["available_actions"]).total
+        return carry, action, policy.log_prob(out, action, obs["available_actions_mask"]).total
 
     return ActorCore(lambda batch_size: None, act, observe)
 

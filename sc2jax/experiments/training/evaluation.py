@@ -39,7 +39,7 @@ def make_policy(agent: str, map_name: str, fmt: ObservationFormat) -> Policy:
     """
     if agent == "random":
         types = fmt.types
-        return lambda key, obs: random_action(key, obs["available_actions"], types)
+        return lambda key, obs: random_action(key, obs["available_actions_mask"], types)
     if agent == "scripted":
         return scripted_policy(map_name, fmt)
     raise ValueError(f"unknown agent {agent!r}; allowed: {list(AGENTS)}")
@@ -197,7 +197,7 @@ HostAct = Callable[[jax.Array, Any, dict, np.ndarray], tuple[Any, DenseAction]]
 def host_policy(policy: Policy) -> HostAct:
     """A `Policy` as a `HostAct` for `run_host_episodes` (batched, jitted, no carry)."""
     batched = jax.jit(lambda key, obs: jax.vmap(policy)(
-        jax.random.split(key, jnp.shape(obs["available_actions"])[0]), obs))
+        jax.random.split(key, jnp.shape(obs["available_actions_mask"])[0]), obs))
     return lambda key, carry, obs, first: (carry, batched(key, obs))
 
 

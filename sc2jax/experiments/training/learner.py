@@ -116,7 +116,7 @@ def in_point_heads(path) -> bool:
 def init_params(network: nn.Module, key: jax.Array, observation: Mapping[str, jax.Array]):
     """Initialises any of the four networks from a batch of observations [B, ...]."""
     if isinstance(network, FullyConvLSTM):
-        batch = jnp.shape(observation["available_actions"])[0]
+        batch = jnp.shape(observation["available_actions_mask"])[0]
         obs = jax.tree.map(lambda x: jnp.asarray(x)[None], dict(observation))
         return network.init(key, network.initial_carry(batch), obs, jnp.zeros((1, batch), bool))
     return network.init(key, dict(observation))

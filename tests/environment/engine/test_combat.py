@@ -193,7 +193,7 @@ def test_each_side_stays_on_its_side_of_the_team_split(name):
             state = state.replace(units=state.units.replace(
                 alive=state.units.alive & (state.units.owner != ENEMY)))
         key, k = jax.random.split(key)
-        state, ts = step(state, act(k, ts.observation["available_actions"]), PARAMS)
+        state, ts = step(state, act(k, ts.observation["available_actions_mask"]), PARAMS)
         states.append(state)
     assert bool((states[7].units.alive & (states[7].units.owner == ENEMY)).any())
     front, back = (SELF, ENEMY) if name == "FindAndDefeatZerglings" else (ENEMY, SELF)
@@ -369,7 +369,7 @@ def test_wave_maps_play_on_their_leading_slots_as_on_all_slots():
     a = b = state
     ts = None
     for i in range(6):
-        action = act(jax.random.PRNGKey(i), ts.observation["available_actions"]) if ts else (
+        action = act(jax.random.PRNGKey(i), ts.observation["available_actions_mask"]) if ts else (
             to_dense(FUNCTIONS.no_op(), sim.fmt.types))
         (a, ts), (b, ts_b) = leading(a, action, PARAMS), _every_slot_step()(b, action, PARAMS)
         assert_trees_equal((a, ts), (b, ts_b))

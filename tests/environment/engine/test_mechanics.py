@@ -160,7 +160,7 @@ def selected_pixels(ts):
 
 
 def available(ts):
-    return set(np.flatnonzero(ts.observation["available_actions"]).tolist())
+    return set(np.flatnonzero(ts.observation["available_actions_mask"]).tolist())
 
 
 # Movement and orders -----------------------------------------------------------------
@@ -1015,7 +1015,7 @@ def test_fog_looks_through_the_own_slots_alone():
             state = state.replace(units=state.units.replace(
                 alive=state.units.alive.at[own:].set(False)))
         key, k = jax.random.split(key)
-        state, ts = step(state, act(k, ts.observation["available_actions"]), PARAMS)
+        state, ts = step(state, act(k, ts.observation["available_actions_mask"]), PARAMS)
         states.append(state)
     assert bool(states[7].units.alive[own:].any())  # The respawn happened.
     w, h = sim.game.geometry.size

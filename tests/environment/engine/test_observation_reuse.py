@@ -37,7 +37,7 @@ def play_both(sim, seed: int, steps: int, start=None):
     pairs = []
     for _ in range(steps):
         key, k = jax.random.split(key)
-        action = act(k, ts.observation["available_actions"])
+        action = act(k, ts.observation["available_actions_mask"])
         state, ts = step(state, action, SHORT)
         state_into, ts_into = step_into(sim)(state_into, action, SHORT, obs_into)
         obs_into = ts_into.observation
@@ -105,7 +105,7 @@ def test_previous_of_another_shape_is_refused(key, shape):
     sim = small_sim("MoveToBeacon")
     state, ts = compiled(sim)[0](jax.random.PRNGKey(0), PARAMS)
     action = random_actor(sim.fmt.types)(jax.random.PRNGKey(1),
-                                         ts.observation["available_actions"])
+                                         ts.observation["available_actions_mask"])
     previous = {**ts.observation, key: np.zeros(shape, np.int32)}
     with pytest.raises(ValueError, match=rf"previous\['{key}'\] must be int32"):
         sim.step(state, action, previous=previous)

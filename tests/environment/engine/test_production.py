@@ -69,7 +69,7 @@ def result(ts):
 
 
 def available(ts):
-    return set(np.nonzero(ts.observation["available_actions"])[0].tolist())
+    return set(np.nonzero(ts.observation["available_actions_mask"])[0].tolist())
 
 
 def select_cc(step, state):

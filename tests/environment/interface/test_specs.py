@@ -14,6 +14,7 @@ from sc2jax.environment import (
     to_dense,
 )
 from sc2jax.environment.engine.minigames import get_map
+from sc2jax.environment.interface.layout import to_padded_layout, to_pysc2_layout
 
 
 def test_pysc2_layout_shapes():
@@ -45,10 +46,30 @@ def test_padded_layout_is_fixed():
     assert spec["feature_units"].shape == (16, 46) and spec["feature_units"].dtype == np.int32
     pysc2 = observation_spec(ObservationFormat(use_feature_units=True))
     assert pysc2["feature_units"].dtype == np.int64
-    assert spec["available_actions"].shape == (573,)
-    assert spec["available_actions"].dtype == np.bool_
+    assert spec["available_actions_mask"].shape == (573,)
+    assert spec["available_actions_mask"].dtype == np.bool_
     assert spec["feature_minimap"].shape == (11, 24, 24)
     assert "map_name" not in spec
+
+
+def test_a_key_means_one_thing_in_every_layout():
+    # The mask and PySC2's ids have different names, so `FUNCTIONS.x.id in
+    # obs["available_actions"]` is never silently False on a mask.
+    fmt = ObservationFormat(16, 16)
+    padded, pysc2 = observation_spec(fmt, padded=True), observation_spec(fmt)
+    assert "available_actions" not in padded and "available_actions_mask" not in pysc2
+    assert pysc2["available_actions"].dtype == np.int32
+    shared = set(padded) & set(pysc2)
+    assert shared == set(padded) - {"available_actions_mask"}
+    for key in shared:  # The same dtype and trailing shape; only padding may differ.
+        assert pysc2[key].shape[1:] == padded[key].shape[1:], key
+        assert pysc2[key].dtype == padded[key].dtype or key in ("feature_units", "raw_units")
+    obs = {k: np.zeros(s.shape, s.dtype) for k, s in padded.items()}
+    obs["available_actions_mask"][[0, 7]] = True
+    ids = to_pysc2_layout(obs, "MoveToBeacon")["available_actions"]
+    assert ids.tolist() == [0, 7]
+    back = to_padded_layout(to_pysc2_layout(obs, "MoveToBeacon"), fmt)
+    np.testing.assert_array_equal(back["available_actions_mask"], obs["available_actions_mask"])
 
 
 def test_non_square_and_subset():

@@ -134,7 +134,7 @@ def test_a_batch_of_games_steps_them_together_in_the_padded_layout():
     batch = GameEnvBatch([_env(game) for game in games])
     first = batch.reset()
     assert first.step_type.tolist() == [dm_env.StepType.FIRST] * 2
-    assert first.observation["available_actions"].shape == (2, len(FUNCTIONS))
+    assert first.observation["available_actions_mask"].shape == (2, len(FUNCTIONS))
     assert first.observation["last_actions"].tolist() == [[-1] * 4] * 2
     noop = to_dense([FUNCTIONS.no_op(), FUNCTIONS.no_op()])
     batch.step(noop)

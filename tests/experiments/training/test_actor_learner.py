@@ -60,10 +60,10 @@ def test_unroll_emits_a_consistent_trajectory(agent):
     # The behaviour log-probability is the network's log-probability of the action.
     out = network_unroll(agent.network, state.learner.params,
                          jax.tree.map(lambda x: x[:k], traj.observation))
-    log_pi = policy.log_prob(out, traj.action, traj.observation["available_actions"][:k])
+    log_pi = policy.log_prob(out, traj.action, traj.observation["available_actions_mask"][:k])
     np.testing.assert_allclose(traj.behaviour_log_prob, log_pi.total, rtol=1e-4, atol=1e-4)
     # Every action was available where it was taken.
-    available = np.asarray(traj.observation["available_actions"][:k])
+    available = np.asarray(traj.observation["available_actions_mask"][:k])
     chosen = np.take_along_axis(available, np.asarray(traj.action.function)[..., None], -1)
     assert chosen.all()
 
@@ -163,7 +163,7 @@ def test_split_loop_trains_from_a_dm_env_environment():
     out = network_unroll(agent.network, state.params,
                          jax.tree.map(lambda x: x[:k], trajectory.observation))
     log_pi = policy.log_prob(out, trajectory.action,
-                             trajectory.observation["available_actions"][:k]).total
+                             trajectory.observation["available_actions_mask"][:k]).total
     np.testing.assert_allclose(trajectory.behaviour_log_prob, log_pi, rtol=1e-4, atol=1e-4)
     learner, metrics = run_split_loop(actor, agent.learner, state, 3)
     assert int(learner.update) == 3 and len(metrics) == 3

@@ -241,7 +241,7 @@ class _Episodes(dm_env.Environment):
     def _timestep(self, step_type, reward):
         return dm_env.TimeStep(step_type, reward.astype(np.float32),
                                np.ones(len(self.lengths), np.float32),
-                               {"available_actions": np.ones((len(self.lengths), 3), bool)})
+                               {"available_actions_mask": np.ones((len(self.lengths), 3), bool)})
 
     def reset(self):
         self.t[:] = 0
@@ -266,7 +266,7 @@ def test_host_episodes_take_every_environments_episodes_in_turn():
     seen = []
 
     def act(key, carry, obs, first):
-        assert obs["available_actions"].shape == (2, 3) and first.shape == (2,)
+        assert obs["available_actions_mask"].shape == (2, 3) and first.shape == (2,)
         return carry + 1, "action"
 
     stats = evaluation.run_host_episodes(env, act, 0, 3, on_batch=seen.append)

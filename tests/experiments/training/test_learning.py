@@ -53,11 +53,11 @@ def test_fullyconv_learns_to_click_the_beacon():
     @jax.jit
     def relabel(params, trajectory, key):
         obs = jax.tree.map(lambda x: x[:t], trajectory.observation)
-        can_move = obs["available_actions"][..., MOVE]
+        can_move = obs["available_actions_mask"][..., MOVE]
         # Where Move_screen is available it is the only choice, so its arguments are
         # sampled on-policy and its log-probability is exactly 0.
-        only_move = jnp.zeros_like(obs["available_actions"]).at[..., MOVE].set(True)
-        available = jnp.where(can_move[..., None], only_move, obs["available_actions"])
+        only_move = jnp.zeros_like(obs["available_actions_mask"]).at[..., MOVE].set(True)
+        available = jnp.where(can_move[..., None], only_move, obs["available_actions_mask"])
         out = network_unroll(agent.network, params, obs)
         action = policy.sample(key, out, available)
         beacon = obs["feature_screen"][:, :, 0] == PlayerRelative.NEUTRAL  # [T, B, y, x]
@@ -69,8 +69,8 @@ def test_fullyconv_learns_to_click_the_beacon():
                                         pixel[..., None], -1)[..., 0]
         reward = (can_move & on_beacon).astype(jnp.float32)
         hit_rate = jnp.sum(reward) / jnp.maximum(jnp.sum(can_move), 1)
-        observation = dict(trajectory.observation, available_actions=jnp.concatenate(
-            [available, trajectory.observation["available_actions"][t:]]))
+        observation = dict(trajectory.observation, available_actions_mask=jnp.concatenate(
+            [available, trajectory.observation["available_actions_mask"][t:]]))
         return trajectory._replace(observation=observation, action=action, reward=reward,
                                    discount=jnp.zeros_like(reward)), hit_rate
 

@@ -34,7 +34,7 @@ def _play(devices, steps: int = 3):
         keys = jax.random.split(jax.random.PRNGKey(i), NUM_ENVS)
         # On the host, as the wrapper's actions come (an action left split over the
         # devices would be another program's argument).
-        action = jax.device_get(act(keys, ts.observation["available_actions"], sim.fmt.types))
+        action = jax.device_get(act(keys, ts.observation["available_actions_mask"], sim.fmt.types))
         state, ts = step(state, action, PARAMS)
     return state, ts
 
@@ -100,7 +100,7 @@ def _wrapper_episode(num_devices: int, steps: int = 5):
     timesteps = [env.reset()]
     for i in range(steps):
         keys = jax.random.split(jax.random.PRNGKey(i), NUM_ENVS)
-        action = act(keys, timesteps[-1].observation["available_actions"],
+        action = act(keys, timesteps[-1].observation["available_actions_mask"],
                      env.simulator.fmt.types)
         timesteps.append(env.step(DenseAction(*jax.device_get(action))))
     return env, timesteps
