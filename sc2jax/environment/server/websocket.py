@@ -152,14 +152,14 @@ class Sc2ApiServer:
             except ConnectionClosed:
                 return
             reply, quit_now = self.answer(message, connection)
-            if quit_now:  # The client may not wait for the reply.
-                threading.Thread(target=self.shutdown, daemon=True).start()
             try:
                 connection.send(reply)
             except ConnectionClosed:
                 return
+            finally:
+                if quit_now:  # After the reply (a client may not wait for it).
+                    threading.Thread(target=self.shutdown, daemon=True).start()
             if quit_now:
-                connection.close()
                 return
 
     def answer(self, message: bytes, client: object = None) -> tuple[bytes, bool]:

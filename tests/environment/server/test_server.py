@@ -465,7 +465,9 @@ def test_quit_with_another_connection_open_exits_the_process_cleanly():
         idle = Controller.connect("127.0.0.1", port)  # Open, silent, never closed by us.
         quitting = Controller.connect("127.0.0.1", port)
         assert idle.ping().base_build and quitting.ping().base_build
-        quitting.quit()
+        reply = quitting._exchange("quit", sc2api.Request(id=5, quit=sc2api.RequestQuit()))
+        assert reply.status == sc2api.Status.Value("quit")  # Answered before it stops.
+        quitting.close()
         assert server.wait(timeout=30) == 0
         assert "Traceback" not in server.stderr.read()
         with pytest.raises(ConnectionError):
