@@ -25,10 +25,10 @@ import numpy as np
 from sc2jax.environment.interface.dense import to_dense
 from sc2jax.environment.interface.functions import (
     FUNCTIONS,
-    NUM_FUNCTIONS,
     FunctionCall,
     validate_function_call,
 )
+from sc2jax.environment.interface.layout import available_mask
 from sc2jax.environment.interface.specs import ObservationFormat
 from sc2jax.environment.sc2api import proto_actions, proto_observation
 from sc2jax.environment.sc2api.controller import Controller, RequestError
@@ -105,11 +105,10 @@ def playback_records(controller: Controller, data: bytes, player_id: int,
                 break
             obs = proto_observation.decode(response, fmt, game.map_name, (home, away), True,
                                            map_size)
-            available = np.zeros(NUM_FUNCTIONS, bool)
-            available[obs["available_actions"]] = True
             previous = {"feature_screen": obs["feature_screen"].astype(np.uint16),
                         "feature_minimap": obs["feature_minimap"].astype(np.uint16),
-                        "player": obs["player"], "available_actions_mask": available,
+                        "player": obs["player"],
+                        "available_actions_mask": available_mask(obs["available_actions"]),
                         "game_loop": np.int32(obs["game_loop"][0]), "value": won}
             controller.step(settings.step_mul)
     finally:  # Also when the records are not all read: the game is ready for the next.

@@ -15,6 +15,7 @@ import numpy as np
 
 from sc2jax.environment.interface import observation_tables as tables
 from sc2jax.environment.interface import specs
+from sc2jax.environment.interface.functions import NUM_FUNCTIONS
 from sc2jax.environment.interface.named import NamedDict, NamedNumpyArray
 
 MASK = "available_actions_mask"
@@ -74,6 +75,13 @@ def named(obs: dict, fmt: specs.ObservationFormat) -> NamedDict:
     return out
 
 
+def available_mask(ids) -> np.ndarray:
+    """PySC2's `available_actions` (function ids) as the padded layouts' mask, bool [573]."""
+    mask = np.zeros(NUM_FUNCTIONS, bool)
+    mask[np.asarray(ids)] = True
+    return mask
+
+
 def to_padded_layout(obs: dict, fmt: specs.ObservationFormat) -> dict:
     """Converts one observation in PySC2's layout back to the padded layout (the inverse
     of `to_pysc2_layout`; `map_name` is dropped), e.g. for the real game's observations
@@ -85,9 +93,7 @@ def to_padded_layout(obs: dict, fmt: specs.ObservationFormat) -> dict:
     out = {}
     for key, spec in specs.observation_spec(fmt, padded=True).items():
         if key == MASK:
-            mask = np.zeros(spec.shape, bool)
-            mask[np.asarray(obs["available_actions"])] = True
-            out[key] = mask
+            out[key] = available_mask(obs["available_actions"])
             continue
         value = np.asarray(obs[key])
         if value.shape != spec.shape:

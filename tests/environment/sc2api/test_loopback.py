@@ -10,7 +10,7 @@ from sc2jax.environment import make
 from sc2jax.environment.agents.random_agent import random_action
 from sc2jax.environment.engine.minigames import MAPS
 from sc2jax.environment.interface.dense import from_dense
-from sc2jax.environment.interface.functions import FUNCTIONS
+from sc2jax.environment.interface.layout import available_mask
 from sc2jax.environment.sc2api.controller import Controller
 from sc2jax.environment.sc2api.game_env import GameEnv
 from tests.environment.helpers import SMALL_MAKE, map_params
@@ -46,8 +46,7 @@ def _loopback(server, map_name, steps, **options):
             _assert_same(a, b, f"{map_name} step {t}")
             kinds.add((int(a.step_type), a.discount))
             key, sub = jax.random.split(key)
-            available = np.zeros(len(FUNCTIONS), bool)
-            available[a.observation["available_actions"]] = True
+            available = available_mask(a.observation["available_actions"])
             call = from_dense(random_action(sub, available, local.simulator.fmt.types))
             a, b = local.step(call), remote.step(call)
     finally:

@@ -13,6 +13,7 @@ from sc2jax.environment.interface.functions import FUNCTIONS, FunctionCall
 from sc2jax.environment.sc2api import proto_actions
 from sc2jax.environment.sc2api.controller import Controller, RequestError
 from sc2jax.environment.sc2api.protos import sc2api
+from tests.environment.server.helpers import join_beacon
 
 pytestmark = [pytest.mark.slow, pytest.mark.skipif(
     not pathlib.Path("/proc/self/statm").exists(), reason="reads the memory from /proc")]
@@ -27,15 +28,6 @@ def _rss_mb() -> float:
     return pages * 4096 / 2 ** 20
 
 
-def _join(controller: Controller) -> None:
-    controller.create_game(map_path="MoveToBeacon.SC2Map", random_seed=1)
-    options = sc2api.InterfaceOptions(score=True)
-    layers = options.feature_layer
-    layers.width, layers.resolution.x, layers.resolution.y = 24, 16, 16
-    layers.minimap_resolution.x = layers.minimap_resolution.y = 16
-    controller.join_game(options)
-
-
 def _play_episode(port: int) -> None:
     """A correct client joins (once the last owner's game is left), plays MoveToBeacon to
     its end and leaves."""
@@ -44,7 +36,7 @@ def _play_episode(port: int) -> None:
         deadline = time.monotonic() + 60
         while True:
             try:
-                _join(controller)
+                join_beacon(controller)
                 break
             except RequestError as error:
                 assert "belongs to another connection" in str(error)
@@ -66,7 +58,7 @@ def test_clients_gone_in_the_middle_of_a_request_leave_their_games(server):
     before = _rss_mb()
     for cut in ("before the reply", "inside a frame"):
         owner = Controller.connect("127.0.0.1", server.port)
-        _join(owner)
+        join_beacon(owner)
         if cut == "before the reply":
             step = sc2api.Request(id=7, step=sc2api.RequestStep(count=10_000))
             owner._socket.send_binary(step.SerializeToString())
@@ -86,7 +78,7 @@ def test_many_clients_at_once_are_served_in_turn():
         _play_episode(server.port)  # Compiles.
         before = _rss_mb()
         owner = Controller.connect("127.0.0.1", server.port)
-        _join(owner)
+        join_beacon(owner)
         refused, failures = [], []
 
         def intruder(n: int) -> None:

@@ -26,6 +26,7 @@ from sc2jax.environment.sc2api.protos import sc2api
 from sc2jax.environment.server import Sc2ApiServer, programs
 from sc2jax.environment.server import websocket as server_module
 from sc2jax.environment.server.install_layout import write_sc2path
+from tests.environment.server.helpers import join_beacon
 
 SIZES = dict(screen_size=16, minimap_size=16)
 
@@ -83,7 +84,7 @@ def test_requests_out_of_order_and_bad_setups_get_errors(server):
 def test_a_saved_replay_plays_back_the_same_observations_and_actions(server):
     controller = Controller.connect("127.0.0.1", server.port)
     try:
-        options = _join_beacon(controller)
+        options = join_beacon(controller)
         calls = [FunctionCall(FUNCTIONS.select_army.id, [[0]]),
                  FunctionCall(FUNCTIONS.Move_screen.id, [[0], [3, 12]]), None,
                  FunctionCall(FUNCTIONS.Move_screen.id, [[1], [9, 2]])]
@@ -119,22 +120,11 @@ def test_a_saved_replay_plays_back_the_same_observations_and_actions(server):
         controller.close()
 
 
-def _join_beacon(controller, size=16):
-    controller.create_game(map_path="MoveToBeacon.SC2Map", random_seed=5)
-    options = sc2api.InterfaceOptions(score=True)
-    options.feature_layer.width = 24
-    options.feature_layer.resolution.x = options.feature_layer.resolution.y = size
-    options.feature_layer.minimap_resolution.x = size
-    options.feature_layer.minimap_resolution.y = size
-    controller.join_game(options)
-    return options
-
-
 def test_actions_get_honest_results_and_a_flood_is_refused(server):
     controller = Controller.connect("127.0.0.1", server.port)
     result = sc2api.ActionResult.Name
     try:
-        _join_beacon(controller)
+        join_beacon(controller)
         raw = sc2api.Action()
         raw.action_raw.camera_move.center_world_space.x = 10
         chat = sc2api.Action()
@@ -160,7 +150,7 @@ def test_actions_get_honest_results_and_a_flood_is_refused(server):
 def test_one_compiled_step_runs_every_count_and_program_sets_are_bounded(server):
     controller = Controller.connect("127.0.0.1", server.port)
     try:
-        _join_beacon(controller)
+        join_beacon(controller)
         loops = 0
         for count in (1, 7, 300, 8, 10_000):
             loops += count
@@ -220,7 +210,7 @@ def test_the_game_belongs_to_the_connection_that_started_it(server):
     owner = Controller.connect("127.0.0.1", server.port)
     other = Controller.connect("127.0.0.1", server.port)
     try:
-        _join_beacon(owner)
+        join_beacon(owner)
         owner.step(8)
         for request in (lambda: other.step(8), other.observe, other.leave,
                         lambda: other.create_game(map_path="MoveToBeacon.SC2Map")):
@@ -234,7 +224,7 @@ def test_the_game_belongs_to_the_connection_that_started_it(server):
         deadline = time.time() + 30
         while True:
             try:
-                _join_beacon(other)
+                join_beacon(other)
                 break
             except RequestError:
                 assert time.time() < deadline, "the owner's game was not left"
