@@ -3,10 +3,10 @@ jitted Adam step (docs/benchmarks.md, "Replays").
 
     python scripts/replay_training_speed.py --dataset=DIR --agents=atari,fullyconv,arfullyconv
 
-Each network trains on the same minibatches of the dataset's training split (read and
-converted before timing, so only the update is timed): one warm-up update (compilation),
-then the median of `--repeats` timings of `--updates` updates each, to
-`block_until_ready`. Prints a markdown table.
+Each network trains on the same minibatches of the dataset's training split (read,
+converted and copied to the device before timing, so only the update is timed): one
+warm-up update (compilation), then the median of `--repeats` timings of `--updates`
+updates each, to `block_until_ready`. Prints a markdown table.
 """
 
 from __future__ import annotations
@@ -34,7 +34,7 @@ def main() -> None:
     settings = dataset_settings(args.dataset)
     data = loader(args.dataset, "train", batch_size=args.batch_size, seed=0,
                   drop_remainder=True)
-    batches = [to_batch(data[i]) for i in range(args.updates)]
+    batches = [jax.device_put(to_batch(data[i])) for i in range(args.updates)]
     fmt = ObservationFormat(screen_size=settings.screen_size,
                             minimap_size=settings.minimap_size)
     print(f"{jax.devices()[0].platform}, {len(jax.devices())} device(s); batch "

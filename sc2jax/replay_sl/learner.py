@@ -1,8 +1,9 @@
 """Supervised learning from a replay dataset: a dual-headed network's value and policy
 trained on minibatches of `dataset.loader`, with `losses.make_supervised_loss`.
 
-    state = init(network, fmt, key, learning_rate=1e-3)
-    state, metrics = update(network, state, batch)      # jitted, batch from `to_batch`
+    state = init(network, to_batch(records), key, learning_rate=1e-3)
+    update = make_update(network)
+    state, metrics = update(state, to_batch(records))   # jitted
 
 The function head is trained and measured under the records' `available_actions`
 (`availability`), with the label's function added: the game accepted the player's
@@ -29,14 +30,17 @@ class LearnerState(NamedTuple):
 
 
 def to_batch(records: dict[str, np.ndarray]) -> SupervisedBatch:
-    """A loader minibatch (dict of arrays with a leading batch axis) as a `SupervisedBatch`
-    (the observation as the networks read it)."""
+    """A loader minibatch (dict of arrays with a leading batch axis) as a `SupervisedBatch`.
+
+    The feature layers keep the dataset's uint16 (half the bytes of int32 to copy to an
+    accelerator): the networks read any integer type, embedding categorical layers by
+    index and log-rescaling scalar ones as float32."""
     action = DenseAction(*(records[f"action_{name}"].astype(np.int32)
                            for name in DenseAction._fields))
     available = records["available_actions_mask"].astype(bool)
     available[np.arange(len(available)), action.function] = True
-    observation = {"feature_screen": records["feature_screen"].astype(np.int32),
-                   "feature_minimap": records["feature_minimap"].astype(np.int32),
+    observation = {"feature_screen": records["feature_screen"],
+                   "feature_minimap": records["feature_minimap"],
                    "player": records["player"].astype(np.int32),
                    "available_actions_mask": available}
     return SupervisedBatch(observation, action, records["value"].astype(np.float32))

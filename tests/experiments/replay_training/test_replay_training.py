@@ -60,8 +60,11 @@ def test_bad_configs_are_refused():
 @pytest.mark.slow
 @pytest.mark.skipif(not TEST.exists(), reason="the replays are not there")
 def test_a_run_trains_checkpoints_resumes_and_reports(tmp_path):
-    from sc2jax.experiments.replay_training.trainer import train_replays
+    import jax
+
+    from sc2jax.experiments.replay_training.trainer import _Batches, train_replays
     from sc2jax.replay_sl.dataset import Settings, convert_replays
+    from sc2jax.replay_sl.learner import to_batch
 
     data = tmp_path / "data"
     with pytest.raises(ValueError, match="is not a converted dataset"):
@@ -73,6 +76,13 @@ def test_a_run_trains_checkpoints_resumes_and_reports(tmp_path):
     config = ReplayTrainConfig(str(data), agent="atari", steps=4, batch_size=16, log_every=2,
                                eval_every=2, eval_batches=2, final_eval_batches=4,
                                checkpoint_every=2)
+    batches = _Batches(config)  # Read ahead on threads, in order, across an epoch's end.
+    per = batches.per_epoch
+    want = [to_batch(batches.epoch_data(s // per)[s % per]) for s in range(per - 1, per + 2)]
+    got = list(batches.iterate(per - 1, per + 2))
+    assert len(got) == 3
+    for a, b in zip(want, got, strict=True):
+        jax.tree.map(np.testing.assert_array_equal, a, b)
     run = tmp_path / "run"
     first = train_replays(config, str(run), progress=False, log=lambda _: None)
     assert first["updates"] == 4 and first["examples"] == 64
