@@ -25,6 +25,7 @@ AGENTS=${AGENTS:-fullyconv arfullyconv}
 GPU=${GPU:-1}
 FINAL=${FINAL:-100}
 SPEED_AGENTS=${SPEED_AGENTS:-atari,fullyconv,arfullyconv}
+ARGS=${ARGS:-}  # more train_replays flags, e.g. --learning_rate=1e-3
 mkdir -p "$OUT" "$RUNS"
 export PYTHONUNBUFFERED=1
 if [ "$GPU" = 1 ]; then  # Two training processes share the GPU.
@@ -57,7 +58,7 @@ timeout 90 python3 scripts/replay_training_speed.py --dataset="$DATA" \
 train() {  # train SECONDS AGENT STEPS: train_replays into $RUNS/AGENT, log in $OUT/AGENT.log
   timeout "$1" python3 -m sc2jax.experiments.train_replays --dataset="$DATA" --agent="$2" \
     --steps="$3" --eval_every=1000 --eval_batches=8 --final_eval_batches="$FINAL" \
-    --checkpoint_every=1000000 --run_dir="$RUNS/$2" >>"$OUT/$2.log" 2>&1
+    --checkpoint_every=1000000 --run_dir="$RUNS/$2" $ARGS >>"$OUT/$2.log" 2>&1
   local status=$?
   echo "$2: $3 updates, exit $status"
   return $status

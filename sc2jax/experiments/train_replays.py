@@ -34,7 +34,8 @@ _HELP = {
     "agent": f"Network: one of {list(AGENTS)}.",
     "steps": "Adam updates (0: evaluate the untrained network).",
     "batch_size": "Records per update.",
-    "learning_rate": "Adam's learning rate.",
+    "learning_rate": "Adam's learning rate (default: 1e-3, but 1e-4 for fullyconv and "
+                     "arfullyconv above 32x32).",
     "value_weight": "Weight of the value loss against the policy loss.",
     "log_every": "Updates between rows of train.csv.",
     "eval_every": "Updates between held-out evaluations (test.csv).",
@@ -43,7 +44,8 @@ _HELP = {
     "checkpoint_every": "Updates between checkpoints.",
     "seed": "Seed of the parameters and of the shuffles.",
 }
-_DEFINE = {str: flags.DEFINE_string, int: flags.DEFINE_integer, float: flags.DEFINE_float}
+_DEFINE = {str: flags.DEFINE_string, int: flags.DEFINE_integer, float: flags.DEFINE_float,
+           type(None): flags.DEFINE_float}  # learning_rate: None, a default
 _FLAGS = {f.name: _DEFINE[type(f.default) if f.default is not dataclasses.MISSING else str](
     f.name, None if f.default is dataclasses.MISSING else f.default, _HELP[f.name])
     for f in dataclasses.fields(ReplayTrainConfig)}

@@ -19,7 +19,8 @@ class ReplayTrainConfig:
       agent: one of `AGENTS`.
       steps: Adam updates (0: evaluate the initial network, a random baseline).
       batch_size: records per update (64 in the paper).
-      learning_rate: Adam's.
+      learning_rate: Adam's; None (the default): `default_learning_rate` for the
+        dataset's screen size.
       value_weight: the value loss's weight against the policy loss.
       log_every: updates between rows of training metrics.
       eval_every: updates between evaluations on the fixed held-out batches.
@@ -33,7 +34,7 @@ class ReplayTrainConfig:
     agent: str = "fullyconv"
     steps: int = 20_000
     batch_size: int = 64
-    learning_rate: float = 1e-3
+    learning_rate: float | None = None
     value_weight: float = 1.0
     log_every: int = 100
     eval_every: int = 1_000
@@ -51,5 +52,18 @@ class ReplayTrainConfig:
                      "final_eval_batches", "checkpoint_every"):
             check_positive_int(name, getattr(self, name))
         for name in ("learning_rate", "value_weight"):
-            if not getattr(self, name) > 0:
+            if getattr(self, name) is not None and not getattr(self, name) > 0:
                 raise ValueError(f"{name} must be > 0, got {getattr(self, name)!r}")
+
+
+def default_learning_rate(agent: str, screen_size: int) -> float:
+    """Adam's learning rate for a network at a screen size: 1e-3, but 1e-4 for FullyConv
+    and arFullyConv above 32².
+
+    Their 256-unit layer reads screen_size² × 32 inputs (131,072 at 64²). At 64² and 1e-3
+    the first steps blew up the logits, and on a GPU both networks' value heads settled on
+    a constant (loss ln 2 from update 300 on) and their function heads on the most
+    frequent functions (docs/replays.md); at 1e-4 the value head kept learning. At 16² and
+    32², 1e-3 cloned the demonstrations (docs/replays.md).
+    """
+    return 1e-3 if agent == "atari" or screen_size <= 32 else 1e-4

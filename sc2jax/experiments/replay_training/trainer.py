@@ -29,7 +29,10 @@ import jax
 from sc2jax.atomic import atomic_write, write_json_atomic
 from sc2jax.checks import check_not_a_file
 from sc2jax.environment.interface.specs import ObservationFormat
-from sc2jax.experiments.replay_training.config import ReplayTrainConfig
+from sc2jax.experiments.replay_training.config import (
+    ReplayTrainConfig,
+    default_learning_rate,
+)
 from sc2jax.experiments.replay_training.evaluation import (
     function_counts,
     gather,
@@ -148,6 +151,9 @@ def train_replays(config: ReplayTrainConfig, run_dir: str, *, log=print,
         a run directory that holds a run with another config.
     """
     settings = dataset_settings(config.dataset)
+    if config.learning_rate is None:
+        config = dataclasses.replace(config, learning_rate=default_learning_rate(
+            config.agent, settings.screen_size))
     test = loader(config.dataset, "test", batch_size=config.batch_size, seed=EVAL_SEED,
                   drop_remainder=True)
     batches = _Batches(config)

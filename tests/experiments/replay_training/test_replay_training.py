@@ -8,7 +8,10 @@ import numpy as np
 import pytest
 
 from sc2jax.environment.interface.functions import FUNCTIONS, NUM_FUNCTIONS
-from sc2jax.experiments.replay_training.config import ReplayTrainConfig
+from sc2jax.experiments.replay_training.config import (
+    ReplayTrainConfig,
+    default_learning_rate,
+)
 from sc2jax.experiments.replay_training.evaluation import LOOPS_PER_MINUTE, summarize
 
 REPLAYS = pathlib.Path(__file__).parents[4] / "shared" / "replays"
@@ -53,6 +56,9 @@ def test_bad_configs_are_refused():
         ReplayTrainConfig("d", agent="fullyconv_lstm")
     with pytest.raises(ValueError, match="steps must be an int >= 0, got -1"):
         ReplayTrainConfig("d", steps=-1)
+    assert [default_learning_rate(agent, size) for agent, size in (
+        ("atari", 64), ("fullyconv", 32), ("fullyconv", 64), ("arfullyconv", 64))] == [
+            1e-3, 1e-3, 1e-4, 1e-4]
     with pytest.raises(ValueError, match="learning_rate must be > 0, got 0"):
         ReplayTrainConfig("d", learning_rate=0)
 
@@ -86,6 +92,7 @@ def test_a_run_trains_checkpoints_resumes_and_reports(tmp_path):
     run = tmp_path / "run"
     first = train_replays(config, str(run), progress=False, log=lambda _: None)
     assert first["updates"] == 4 and first["examples"] == 64
+    assert json.loads((run / "config.json").read_text())["learning_rate"] == 1e-3  # Resolved.
     more = train_replays(ReplayTrainConfig(**{**config.__dict__, "steps": 6}), str(run),
                          progress=False, log=lambda _: None)
     assert more["updates"] == 6
