@@ -53,7 +53,7 @@ part() {  # part NAME SECONDS ARGS...: one python run, its output in $OUT/NAME.l
 
 part sim_big 230 -m sc2jax.experiments.benchmark --maps=$MAPS --num_envs=$BIG --devices=1 \
   --repeats=5 --screen_size=$SIZE --minimap_size=$SIZE
-part train 200 -m sc2jax.experiments.benchmark_training --agents=fullyconv,atari \
+part train 200 -m sc2jax.experiments.benchmark_training --networks=fullyconv,atari \
   --sizes=$SIZE --num_envs=$TRAIN_ENVS --repeats=3
 part sim_other 200 -m sc2jax.experiments.benchmark --maps=$OTHER --num_envs=$BIG --devices=1 \
   --repeats=3 --screen_size=$SIZE --minimap_size=$SIZE

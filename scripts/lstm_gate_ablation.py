@@ -3,7 +3,7 @@
     python scripts/lstm_gate_ablation.py --block=value TRAIN_FLAGS   # then
     python scripts/lstm_output.py --run_dir=DIR
 
-Trains as `python -m sc2jax.experiments.train TRAIN_FLAGS` does (`--agent=fullyconv_lstm`),
+Trains as `python -m sc2jax.experiments.train TRAIN_FLAGS` does (`--network=fullyconv_lstm`),
 except that one term's gradient stops at the heads' input, the ConvLSTM's output:
 `--block=value` trains the torso and ConvLSTM on the policy and entropy terms alone (the
 value head and the fully-connected layer still learn from the value term), and
@@ -39,8 +39,8 @@ class BlockedHeads(fully_conv.FullyConvHeads):
 
 
 def main(argv):
-    if flags.FLAGS.agent != "fullyconv_lstm":
-        raise app.UsageError(f"--agent must be fullyconv_lstm, got {flags.FLAGS.agent!r}")
+    if flags.FLAGS.network != "fullyconv_lstm":
+        raise app.UsageError(f"--network must be fullyconv_lstm, got {flags.FLAGS.network!r}")
     fully_conv_lstm.FullyConvHeads = BlockedHeads  # The class FullyConvLSTM builds.
     train.main(argv)
 

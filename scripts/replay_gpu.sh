@@ -52,11 +52,11 @@ echo "convert exit $? in $(($(date +%s) - start)) s"; tail -2 "$OUT/convert.log"
 
 echo "== update speed"
 timeout 90 python3 scripts/replay_training_speed.py --dataset="$DATA" \
-  --agents="$SPEED_AGENTS" --updates=20 --repeats=3 2>&1 \
+  --networks="$SPEED_AGENTS" --updates=20 --repeats=3 2>&1 \
   | grep -v -E "^W[0-9]{4}|^$" | tee "$OUT/speed.md"
 
 train() {  # train SECONDS AGENT STEPS: train_replays into $RUNS/AGENT, log in $OUT/AGENT.log
-  timeout "$1" python3 -m sc2jax.experiments.train_replays --dataset="$DATA" --agent="$2" \
+  timeout "$1" python3 -m sc2jax.experiments.train_replays --dataset="$DATA" --network="$2" \
     --steps="$3" --eval_every=1000 --eval_batches=8 --final_eval_batches="$FINAL" \
     --checkpoint_every=1000000 --run_dir="$RUNS/$2" $ARGS >>"$OUT/$2.log" 2>&1
   local status=$?

@@ -1,7 +1,7 @@
 """Supervised training speed on a replay dataset: records per second of each network's
 jitted Adam step (docs/benchmarks.md, "Replays").
 
-    python scripts/replay_training_speed.py --dataset=DIR --agents=atari,fullyconv,arfullyconv
+    python scripts/replay_training_speed.py --dataset=DIR --networks=atari,fullyconv,arfullyconv
 
 Each network trains on the same minibatches of the dataset's training split (read,
 converted and copied to the device before timing, so only the update is timed): one
@@ -26,7 +26,8 @@ from sc2jax.replay_sl.learner import init, make_update, to_batch
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--dataset", required=True)
-    parser.add_argument("--agents", default="atari,fullyconv,arfullyconv")
+    parser.add_argument("--networks", "--agents", dest="networks",
+                        default="atari,fullyconv,arfullyconv")
     parser.add_argument("--batch_size", type=int, default=64)
     parser.add_argument("--updates", type=int, default=5)
     parser.add_argument("--repeats", type=int, default=3)
@@ -40,7 +41,7 @@ def main() -> None:
     print(f"{jax.devices()[0].platform}, {len(jax.devices())} device(s); batch "
           f"{args.batch_size}; {settings.screen_size}² screen, {settings.minimap_size}² "
           f"minimap\n\n| network | ms per update | records/s |\n|---|---:|---:|")
-    for agent in args.agents.split(","):
+    for agent in args.networks.split(","):
         network = make_network(agent, fmt)
         state = init(network, batches[0], jax.random.PRNGKey(0))
         update = make_update(network)

@@ -84,6 +84,14 @@ def test_a_preset_sets_the_config_and_a_given_flag_overrides_it():
         else:
             raise AssertionError("no error for an unknown preset")
         assert len(PRESETS) == 8 and all(p.config.map_name for p in PRESETS.values())
+        # --network names the architecture; the old --agent and PySC2's names still work.
+        for args in (["--network=atari", "--screen_size=32", "--minimap_size=24"],
+                     ["--agent=atari", "--feature_screen_size=32",
+                      "--feature_minimap_size=24"]):
+            FLAGS.unparse_flags(); FLAGS(["x", *args])
+            config = training_flags.config_from_flags()
+            assert (config.agent, config.screen_size, config.minimap_size) == (
+                "atari", 32, 24), (args, config)
         # The persistent compilation cache: on at --compilation_cache, off with ''.
         import jax
         FLAGS.unparse_flags(); FLAGS(["x", "--compilation_cache=/tmp/sc2jax-test-cache"])

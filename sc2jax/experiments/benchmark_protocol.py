@@ -57,7 +57,8 @@ flags.DEFINE_integer("warmup", 20, "Untimed agent steps first (compilation).")
 flags.DEFINE_integer("parses", 200, "Repeats for the cost of one observation.")
 flags.DEFINE_list("actor_processes", ["1", "4", "16"],
                   "Server processes one HostActor acts for (0 or empty: skip).")
-flags.DEFINE_string("actor_agent", "fullyconv", "The network the actor acts with.")
+flags.DEFINE_string("actor_network", "fullyconv", "The network the actor acts with.")
+flags.DEFINE_alias("actor_agent", "actor_network")  # The old name.
 flags.DEFINE_integer("actor_unrolls", 5, "Timed K-step unrolls per actor measurement.")
 flags.DEFINE_integer("unroll_length", 40, "K.")
 flags.DEFINE_string("output", None, "Markdown file to write the results section into.")
@@ -193,7 +194,7 @@ def main(argv: Sequence[str]) -> None:
     with tempfile.TemporaryDirectory() as tmp:
         root = write_sc2path(tmp)
         for n in counts:
-            rate = actor_steps_per_second(root, FLAGS.maps[0], n, FLAGS.actor_agent, sizes,
+            rate = actor_steps_per_second(root, FLAGS.maps[0], n, FLAGS.actor_network, sizes,
                                           FLAGS.unroll_length, FLAGS.actor_unrolls)
             logging.info("actor over %d server processes: %.0f agent steps/s", n, rate)
             actors.append((n, rate))
@@ -202,7 +203,7 @@ def main(argv: Sequence[str]) -> None:
                f"--minimap_size={FLAGS.minimap_size} --steps={FLAGS.steps} "
                f"--warmup={FLAGS.warmup} --parses={FLAGS.parses} "
                f"--actor_processes={','.join(FLAGS.actor_processes)} "
-               f"--actor_agent={FLAGS.actor_agent} --actor_unrolls={FLAGS.actor_unrolls} "
+               f"--actor_network={FLAGS.actor_network} --actor_unrolls={FLAGS.actor_unrolls} "
                f"--unroll_length={FLAGS.unroll_length}")
     lines = [SECTION, "", f"Command: `{command}`", "",
              f"- Machine before the run: {before}", f"- Load after the run: {machine()}",
@@ -225,7 +226,7 @@ def main(argv: Sequence[str]) -> None:
               f"{u['decode'] * 1e3:.3f} |" for n, _, _, u in rows]
     if actors:
         lines += ["", f"One `HostActor` acting for N server processes of {FLAGS.maps[0]} "
-                  f"with one batched {FLAGS.actor_agent} policy call per step "
+                  f"with one batched {FLAGS.actor_network} policy call per step "
                   f"(K={FLAGS.unroll_length}, {FLAGS.actor_unrolls} timed unrolls; the "
                   f"actors of the split loop, learning excluded):", "",
                   "| Server processes | Agent steps/s |", "|---:|---:|"]

@@ -91,8 +91,10 @@ def table(rows: list[dict], header: str) -> str:
     return "\n".join(lines)
 
 
-_AGENTS = flags.DEFINE_list("agents", ["atari", "fullyconv", "fullyconv_lstm", "arfullyconv"],
-                           "Networks to measure.")
+_NETWORKS = flags.DEFINE_list("networks",
+                             ["atari", "fullyconv", "fullyconv_lstm", "arfullyconv"],
+                             "Networks to measure.")
+flags.DEFINE_alias("agents", "networks")  # The old name.
 _SIZES = flags.DEFINE_list("sizes", ["32", "64"], "Screen and minimap sizes.")
 _NUM_ENVS = flags.DEFINE_integer("num_envs", 16, "Environments stepped together.")
 _UNROLL = flags.DEFINE_integer("unroll_length", 40, "K, agent steps per update.")
@@ -108,7 +110,7 @@ def main(argv) -> None:
     configs = [TrainConfig(map_name=_MAP.value, agent=agent, screen_size=size,
                            minimap_size=size, num_envs=_NUM_ENVS.value,
                            unroll_length=_UNROLL.value)
-               for size in sizes for agent in _AGENTS.value]  # checks every flag first
+               for size in sizes for agent in _NETWORKS.value]  # checks every flag first
     rows = []
     for config in configs:
         rows.append(measure(config, _REPEATS.value))

@@ -43,6 +43,7 @@ _MAP, _BACKEND, _SC2PATH, _NUM_ENVS, _SCREEN, _MINIMAP, _STEP_MUL, _SEED = train
     num_envs=64).values()
 _AGENT = flags.DEFINE_string("agent", "random", f"Agent: one of {list(evaluation.AGENTS)}.")
 _EPISODES = flags.DEFINE_integer("episodes", 100, "Episodes to run.")
+flags.DEFINE_alias("max_episodes", "episodes")  # PySC2's name (pysc2.bin.agent).
 _OUTPUT = flags.DEFINE_string("output", None, "Write the results as JSON to this file.")
 _RUN_DIR = flags.DEFINE_string("run_dir", None, "Evaluate the network trained in this run "
                                "directory (--agent is ignored): an A3C run on its own map "

@@ -29,8 +29,8 @@ from sc2jax.experiments.sweeps.random_search import random_search
 from sc2jax.experiments.training import flags as training_flags
 from sc2jax.experiments.training.config import TrainConfig, parse_names
 
-_MAP, _AGENT, _SCREEN, _MINIMAP, _SCREEN_FEATURES, _MINIMAP_FEATURES, _SEED = (
-    training_flags.define(("map", "agent", "screen_size", "minimap_size", "screen_features",
+_MAP, _NETWORK, _SCREEN, _MINIMAP, _SCREEN_FEATURES, _MINIMAP_FEATURES, _SEED = (
+    training_flags.define(("map", "network", "screen_size", "minimap_size", "screen_features",
                            "minimap_features", "seed")).values())
 _NUM_POLICIES = flags.DEFINE_integer("num_policies", 100, "Random policies to try.")
 _TEMPERATURE = flags.DEFINE_float("temperature", 1e-3, "Their softmax temperature.")
@@ -45,7 +45,7 @@ def main(argv) -> None:
     del argv
     training_flags.start_command()
     try:
-        config = TrainConfig(map_name=_MAP.value, agent=_AGENT.value,
+        config = TrainConfig(map_name=_MAP.value, agent=_NETWORK.value,
                              screen_size=_SCREEN.value, minimap_size=_MINIMAP.value,
                              screen_features=parse_names(_SCREEN_FEATURES.value),
                              minimap_features=parse_names(_MINIMAP_FEATURES.value),

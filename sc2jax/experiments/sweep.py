@@ -1,7 +1,7 @@
 r"""A hyper-parameter sweep like the paper's: N runs with sampled learning rates,
 trained together (vmapped in one program on an accelerator).
 
-    python -m sc2jax.experiments.sweep --map=MoveToBeacon --agent=fullyconv \
+    python -m sc2jax.experiments.sweep --map=MoveToBeacon --network=fullyconv \
         --num_runs=8 --total_steps=2000000 --run_dir=/tmp/sweeps/beacon
 
 Takes every flag of `sc2jax.experiments.train` (the shared config, --preset included;

@@ -1,6 +1,6 @@
 r"""Table 1 for sc2jax: a learning-rate sweep on each mini-game, beside the paper's rows.
 
-    python -m sc2jax.experiments.table1 --agent=fullyconv --num_runs=8 \
+    python -m sc2jax.experiments.table1 --network=fullyconv --num_runs=8 \
         --total_steps=60000000 --run_dir=/tmp/table1
 
 Takes the flags of `sweep` (and so of `train`), except that --maps (default: all

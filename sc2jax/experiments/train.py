@@ -2,7 +2,7 @@ r"""Trains an agent on a mini-game of the embedded simulator (or on StarCraft II
 itself), then evaluates it.
 
     python -m sc2jax.experiments.train --preset=beacon_quickstart
-    python -m sc2jax.experiments.train --map=MoveToBeacon --agent=fullyconv \
+    python -m sc2jax.experiments.train --map=MoveToBeacon --network=fullyconv \
         --total_steps=5000000 --run_dir=/tmp/runs/beacon
     python -m sc2jax.experiments.train --backend=sc2 --num_envs=8 ...   # the real game
     python -m sc2jax.experiments.train --backend=sc2 --map=Simple64 --bot=terran,easy

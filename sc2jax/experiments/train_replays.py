@@ -4,9 +4,9 @@ evaluates it on the held-out games.
     python -m sc2jax.experiments.convert_replays --replays=../shared/replays \
         --output=/data/replays64
     python -m sc2jax.experiments.train_replays --dataset=/data/replays64 \
-        --agent=fullyconv --steps=20000 --run_dir=/tmp/runs/sl_fullyconv
+        --network=fullyconv --steps=20000 --run_dir=/tmp/runs/sl_fullyconv
     python -m sc2jax.experiments.train_replays --dataset=/data/replays64 \
-        --agent=arfullyconv --steps=0 --run_dir=/tmp/runs/sl_random   # a random baseline
+        --network=arfullyconv --steps=0 --run_dir=/tmp/runs/sl_random   # a random baseline
 
 The network predicts the game's outcome (value) and the player's next action (policy)
 from the observation, trained with `sc2jax.losses`' supervised loss under the records'
@@ -31,7 +31,7 @@ from sc2jax.experiments.training import flags as training_flags
 
 _HELP = {
     "dataset": "The dataset's folder (written by convert_replays).",
-    "agent": f"Network: one of {list(AGENTS)}.",
+    "agent": f"Network: one of {list(AGENTS)}.",  # --network
     "steps": "Adam updates (0: evaluate the untrained network).",
     "batch_size": "Records per update.",
     "learning_rate": "Adam's learning rate (default: 1e-3, but 1e-4 for fullyconv and "
@@ -46,9 +46,11 @@ _HELP = {
 }
 _DEFINE = {str: flags.DEFINE_string, int: flags.DEFINE_integer, float: flags.DEFINE_float,
            type(None): flags.DEFINE_float}  # learning_rate: None, a default
+_FLAG_NAMES = {"agent": "network"}  # A config field -> its flag, where they differ.
 _FLAGS = {f.name: _DEFINE[type(f.default) if f.default is not dataclasses.MISSING else str](
-    f.name, None if f.default is dataclasses.MISSING else f.default, _HELP[f.name])
-    for f in dataclasses.fields(ReplayTrainConfig)}
+    _FLAG_NAMES.get(f.name, f.name), None if f.default is dataclasses.MISSING else f.default,
+    _HELP[f.name]) for f in dataclasses.fields(ReplayTrainConfig)}
+flags.DEFINE_alias("agent", "network")  # The old name (as in train).
 _RUN_DIR = flags.DEFINE_string("run_dir", None, "The run's folder (default: a new temporary "
                                "one); a run there is resumed.")
 

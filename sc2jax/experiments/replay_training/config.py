@@ -45,7 +45,7 @@ class ReplayTrainConfig:
 
     def __post_init__(self):
         if self.agent not in AGENTS:
-            raise ValueError(f"unknown agent {self.agent!r}; allowed: {list(AGENTS)}")
+            raise ValueError(f"unknown network {self.agent!r}; allowed: {list(AGENTS)}")
         if isinstance(self.steps, bool) or not isinstance(self.steps, int) or self.steps < 0:
             raise ValueError(f"steps must be an int >= 0, got {self.steps!r}")
         for name in ("batch_size", "log_every", "eval_every", "eval_batches",

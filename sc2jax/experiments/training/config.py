@@ -120,7 +120,7 @@ class TrainConfig:
             object.__setattr__(self, "bot", tuple(self.bot))
             self.opponent().setup()  # checks the race, difficulty and build
         if self.agent not in NETWORKS:
-            raise ValueError(f"unknown agent {self.agent!r}; allowed: {sorted(NETWORKS)}")
+            raise ValueError(f"unknown network {self.agent!r}; allowed: {sorted(NETWORKS)}")
         if self.off_policy_correction not in OFF_POLICY_CORRECTIONS:
             raise ValueError(f"unknown off_policy_correction {self.off_policy_correction!r}; "
                              f"allowed: {list(OFF_POLICY_CORRECTIONS)}")

@@ -51,7 +51,7 @@ _TABLE = {
                 "game process per environment, from --sc2path)."),
     "bot": ("bot", flags.DEFINE_string, "A built-in AI opponent on the real game: "
             "race,difficulty[,build], e.g. terran,easy."),
-    "agent": ("agent", flags.DEFINE_string, f"Network: one of {sorted(NETWORKS)}."),
+    "network": ("agent", flags.DEFINE_string, f"Network: one of {sorted(NETWORKS)}."),
     "screen_size": ("screen_size", flags.DEFINE_integer, "Feature-screen resolution (16..256)."),
     "minimap_size": ("minimap_size", flags.DEFINE_integer,
                      "Feature-minimap resolution (16..256)."),
@@ -106,6 +106,10 @@ _TABLE = {
     "sc2path": (None, flags.DEFINE_string, "The game's install (default $SC2PATH)."),
 }
 _NAMES = ("screen_features", "minimap_features", "functions", "bot")  # Lists in one string.
+ALIASES = {"network": ("agent",), "screen_size": ("feature_screen_size",),
+           "minimap_size": ("feature_minimap_size",)}
+"""Other names a flag answers to: its old name (`--agent`: `--network` means the
+architecture and `--agent` a policy, in `evaluate`) and PySC2's names."""
 
 
 def _flag_default(field: str | None):
@@ -128,6 +132,8 @@ def define(names, **defaults) -> dict[str, flags.FlagHolder]:
         field, definer, help_text = _TABLE[name]
         default = defaults.get(name, _flag_default(field))
         holders[name] = definer(name, default, help_text)
+        for alias in ALIASES.get(name, ()):
+            flags.DEFINE_alias(alias, name)
     return holders
 
 

@@ -36,7 +36,7 @@ def test_a_cloned_scripted_agent_plays_and_starts_a3c(tmp_path):
              f"--output={demos}")
     recorded = json.loads((demos / "conversion.json").read_text())
     assert [e["split"] for e in recorded["replays"]].count("test") == 1
-    _command("sc2jax.experiments.train_replays", f"--dataset={demos}", "--agent=fullyconv",
+    _command("sc2jax.experiments.train_replays", f"--dataset={demos}", "--network=fullyconv",
              "--steps=150", "--batch_size=32", "--eval_every=150", "--eval_batches=2",
              "--final_eval_batches=6", f"--run_dir={clone}")
     held_out = json.loads((clone / "eval.json").read_text())

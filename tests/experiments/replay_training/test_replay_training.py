@@ -52,7 +52,7 @@ def test_summarize_by_hand():
 
 
 def test_bad_configs_are_refused():
-    with pytest.raises(ValueError, match=r"unknown agent 'fullyconv_lstm'; allowed: \["):
+    with pytest.raises(ValueError, match=r"unknown network 'fullyconv_lstm'; allowed: \["):
         ReplayTrainConfig("d", agent="fullyconv_lstm")
     with pytest.raises(ValueError, match="steps must be an int >= 0, got -1"):
         ReplayTrainConfig("d", steps=-1)

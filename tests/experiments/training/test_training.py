@@ -41,7 +41,7 @@ SWEEP = TrainConfig(**{**PERIODIC.to_json(), "eval_episodes": 2})
 
 @pytest.mark.parametrize("change, message", [
     (dict(map_name="Nope"), "unknown map 'Nope'"),
-    (dict(agent="lstm"), "unknown agent 'lstm'"),
+    (dict(agent="lstm"), "unknown network 'lstm'"),
     (dict(num_envs=0), "num_envs must be a positive int"),
     (dict(unroll_length=-1), "unroll_length must be a positive int"),
     (dict(learning_rate=0.0), "learning_rate must be a positive number"),
