@@ -74,12 +74,9 @@ class View:
                 raise ValueError(f"{name} must be an int in 1..256, got {value!r}")
 
 
-def _sight(points: np.ndarray, eyes: np.ndarray, map_size: tuple[int, int]) -> np.ndarray:
-    """bool [T, H, W]: the world cells (1 x 1 units, indexed [y, x]) whose centres lie
-    within SIGHT of the centre of a cell holding an eye.
-
-    Each eye's disc is drawn row by row: +1 where its span on a row starts, -1 after it
-    ends, summed along the rows.
+def _eye_cells(points: np.ndarray, eyes: np.ndarray, map_size: tuple[int, int]):
+    """The distinct world cells (1 x 1 units) that hold an eye, as (t, x, y): int64 [E]
+    each, ordered by step t.
 
     Args:
       points: float32 [T, U, 2] the units' points.
@@ -92,28 +89,75 @@ def _sight(points: np.ndarray, eyes: np.ndarray, map_size: tuple[int, int]) -> n
     cells = np.unique((t * height + cy) * width + cx)  # Units on one cell see alike.
     t, rest = np.divmod(cells, height * width)
     cy, cx = np.divmod(rest, width)
-    y = cy[:, None] + _SIGHT_ROWS[None, :]  # [E, R]
-    keep = (y >= 0) & (y < height)
-    row = (t[:, None] * height + y) * (width + 1)
-    start = row + np.maximum(cx[:, None] - _SIGHT_HALF_SPAN[None, :], 0)
-    stop = row + np.minimum(cx[:, None] + _SIGHT_HALF_SPAN[None, :], width - 1) + 1
-    size = len(eyes) * height * (width + 1)
-    edges = (np.bincount(start[keep], minlength=size)
-             - np.bincount(stop[keep], minlength=size)).reshape(len(eyes), height, width + 1)
-    return np.cumsum(edges, axis=2)[:, :, :width] > 0
+    return t, cx, cy
 
 
-_SIGHT_ROWS = np.arange(-int(SIGHT), int(SIGHT) + 1)
-_SIGHT_HALF_SPAN = np.floor(np.sqrt(SIGHT ** 2 - _SIGHT_ROWS ** 2)).astype(np.int64)
-"""A disc of SIGHT cells: on row dy it spans dx in [-half, half]."""
+def _inside(x: np.ndarray, y: np.ndarray, map_size: tuple[int, int]) -> np.ndarray:
+    return (x >= 0) & (x < map_size[0]) & (y >= 0) & (y < map_size[1])
 
 
-def _look_up(grid: np.ndarray, t: np.ndarray, xs: np.ndarray, ys: np.ndarray) -> np.ndarray:
-    """grid[t, floor(ys), floor(xs)] for world points (False outside the map)."""
-    height, width = grid.shape[1:]
+def _visible_grid(eyes, rows: np.ndarray, cols: np.ndarray,
+                  map_size: tuple[int, int]) -> np.ndarray:
+    """bool [T, I, J]: at each step t, whether the cell (cols[t, j], rows[t, i]) is on
+    the map and its centre lies within SIGHT of the centre of an eye's cell.
+
+    Each eye's disc is drawn on the rows it reaches: +1 at the first column of its span,
+    -1 after the last, summed along the rows; only the queried cells are drawn, not
+    the map.
+
+    Args:
+      eyes: `_eye_cells`.
+      rows: int64 [T, I] cells' y.
+      cols: int64 [T, J] cells' x, non-decreasing along j.
+    """
+    t, x, y = eyes
+    steps, num_rows = rows.shape
+    num_cols = cols.shape[1]
+    # Eyes that reach the queried rows and columns (on the screen, few do).
+    near = ((y >= rows.min(1)[t] - _SIGHT_CELLS) & (y <= rows.max(1)[t] + _SIGHT_CELLS)
+            & (x >= cols[t, 0] - _SIGHT_CELLS) & (x <= cols[t, -1] + _SIGHT_CELLS))
+    t, x, y = t[near], x[near], y[near]
+    dy = np.abs(rows[t] - y[:, None])  # [E, I]
+    e, i = np.nonzero(dy <= _SIGHT_CELLS)
+    half = _SIGHT_HALF_SPAN[dy[e, i]]
+    # One sorted key per (step, column), so that one searchsorted finds every span.
+    keys = (np.arange(steps)[:, None] * _KEY_STRIDE + cols + _KEY_OFFSET).ravel()
+    base = t[e] * _KEY_STRIDE + _KEY_OFFSET + x[e]
+    first = t[e] * num_cols
+    lo = np.searchsorted(keys, base - half, "left") - first
+    hi = np.searchsorted(keys, base + half, "right") - first
+    row = (t[e] * num_rows + i) * (num_cols + 1)
+    size = steps * num_rows * (num_cols + 1)
+    edges = (np.bincount(row + lo, minlength=size) - np.bincount(row + hi, minlength=size))
+    seen = np.cumsum(edges.reshape(steps, num_rows, num_cols + 1), axis=2)[:, :, :num_cols]
+    return (seen > 0) & _inside(cols[:, None, :], rows[:, :, None], map_size)
+
+
+def _visible_points(eyes, t: np.ndarray, xs: np.ndarray, ys: np.ndarray,
+                    map_size: tuple[int, int]) -> np.ndarray:
+    """bool [N]: whether the cell of each world point (xs[n], ys[n]) at step t[n] is on
+    the map and within SIGHT of an eye's cell (as `_visible_grid`)."""
+    eye_t, eye_x, eye_y = eyes
+    height = map_size[1]
     x, y = np.floor(xs).astype(np.int64), np.floor(ys).astype(np.int64)
-    inside = (x >= 0) & (x < width) & (y >= 0) & (y < height)
-    return grid[t, np.clip(y, 0, height - 1), np.clip(x, 0, width - 1)] & inside
+    # The eyes of a step are ordered by row: those within SIGHT rows are a range.
+    key = eye_t * height + eye_y
+    start = np.searchsorted(key, t * height + np.clip(y - _SIGHT_CELLS, 0, height - 1), "left")
+    count = np.searchsorted(key, t * height + np.clip(y + _SIGHT_CELLS, 0, height - 1),
+                            "right") - start
+    n = np.repeat(np.arange(len(t)), count)  # Every (point, nearby eye of its step) pair.
+    e = np.arange(len(n)) - np.repeat(np.cumsum(count) - count - start, count)
+    dy = np.abs(y[n] - eye_y[e])
+    near = (dy <= _SIGHT_CELLS) & (
+        np.abs(x[n] - eye_x[e]) <= _SIGHT_HALF_SPAN[np.minimum(dy, _SIGHT_CELLS)])
+    return (np.bincount(n[near], minlength=len(t)) > 0) & _inside(x, y, map_size)
+
+
+_SIGHT_CELLS = int(SIGHT)
+_SIGHT_HALF_SPAN = np.floor(np.sqrt(SIGHT ** 2 - np.arange(_SIGHT_CELLS + 1) ** 2)).astype(
+    np.int64)
+"""A disc of SIGHT cells: on the row dy cells away it spans dx in [-half, half]."""
+_KEY_OFFSET, _KEY_STRIDE = 1 << 20, 1 << 22  # Cells stay far inside (-2^20, 2^21).
 
 
 def _paint(layers: dict[str, np.ndarray], t: np.ndarray, pixels: np.ndarray, radius: float,
@@ -166,12 +210,13 @@ def render(table: UnitTable, at: UnitsAt, loops: np.ndarray, points: np.ndarray,
     alive, owners = at.alive, at.owner
     types = np.where(at.unit_type < UNIT_TYPE_SCALE, at.unit_type, 0)  # Newer than v4: 0.
     mine = alive & (owners == player_id)
-    sight = _sight(points, mine, view.map_size)
+    eyes = _eye_cells(points, mine, view.map_size)
     # Units drawn: the player's, neutral, and enemies in sight (or all of them).
     enemy = alive & (owners != player_id) & (owners != 0)
     if not view.full_information:
         t, u = np.nonzero(enemy)
-        enemy[t, u] = _look_up(sight, t, points[t, u, 0], points[t, u, 1])
+        enemy[t, u] = _visible_points(eyes, t, points[t, u, 0], points[t, u, 1],
+                                      view.map_size)
     t, u = np.nonzero(mine | (alive & (owners == 0)) | enemy)  # By step, then unit.
     owner = owners[t, u]
     values = {"player_id": np.where(owner == 0, NEUTRAL, owner),
@@ -188,9 +233,9 @@ def render(table: UnitTable, at: UnitsAt, loops: np.ndarray, points: np.ndarray,
     for name, layer in mini.items():
         feature_minimap[:, getattr(MINIMAP_FEATURES, name).index] = layer
     mxs, mys = minimap.pixel_centers()
-    every = np.arange(steps)[:, None, None]
-    feature_minimap[:, MINIMAP_FEATURES.visibility_map.index] = 2 * _look_up(
-        sight, every, mxs[None, None, :], mys[None, :, None])
+    cells = lambda a: np.broadcast_to(np.floor(a).astype(np.int64), (steps, len(a)))  # noqa: E731
+    feature_minimap[:, MINIMAP_FEATURES.visibility_map.index] = 2 * _visible_grid(
+        eyes, cells(mys), cells(mxs), view.map_size)
     screen = Camera((view.screen_size,) * 2)
     half = screen.view_half_extent()
     feature_minimap[:, MINIMAP_FEATURES.camera.index] = (
@@ -212,8 +257,9 @@ def render(table: UnitTable, at: UnitsAt, loops: np.ndarray, points: np.ndarray,
     for name, layer in scr.items():
         feature_screen[:, getattr(SCREEN_FEATURES, name).index] = layer
     sxs, sys_ = screen.pixel_centers(cameras.T[:, :, None])  # [T, S] each
-    feature_screen[:, SCREEN_FEATURES.visibility_map.index] = 2 * _look_up(
-        sight, every, sxs[:, None, :], sys_[:, :, None])
+    feature_screen[:, SCREEN_FEATURES.visibility_map.index] = 2 * _visible_grid(
+        eyes, np.floor(sys_).astype(np.int64), np.floor(sxs).astype(np.int64),
+        view.map_size)
     return {"feature_screen": feature_screen, "feature_minimap": feature_minimap}
 
 
