@@ -36,15 +36,14 @@ from sc2jax.environment.interface.dense import DenseAction, check_dense_action, 
 from sc2jax.environment.interface.functions import FUNCTIONS, FunctionCall, validate_function_call
 from sc2jax.environment.interface.layout import named, to_padded_layout
 from sc2jax.environment.interface.map_names import MINI_GAMES as MAPS
+from sc2jax.environment.interface.players import BotBuild, Difficulty, Race
 from sc2jax.environment.sc2api import proto_actions, proto_observation
 from sc2jax.environment.sc2api.controller import Controller
 from sc2jax.environment.sc2api.protos import sc2api
 
-RACES = {"random": 4, "terran": 1, "zerg": 2, "protoss": 3}
-DIFFICULTIES = {"very_easy": 1, "easy": 2, "medium": 3, "medium_hard": 4, "hard": 5,
-                "harder": 6, "very_hard": 7, "cheat_vision": 8, "cheat_money": 9,
-                "cheat_insane": 10}
-BUILDS = {"random": 1, "rush": 2, "timing": 3, "power": 4, "macro": 5, "air": 6}
+RACES = {race.name: race.value for race in Race}
+DIFFICULTIES = {level.name: level.value for level in Difficulty}
+BUILDS = {build.name: build.value for build in BotBuild}
 END_OF_GAME_LOOP = 2 ** 32 - 1
 """The game loop of the stub observation the game sends after the game ended."""
 

@@ -16,7 +16,6 @@ episodes); the observations are PySC2's layout with its names.
 from __future__ import annotations
 
 import collections
-import enum
 import random
 from collections.abc import Sequence
 
@@ -25,6 +24,7 @@ import dm_env
 from sc2jax.environment.engine.minigames import check_map
 from sc2jax.environment.interface import specs
 from sc2jax.environment.interface.functions import FUNCTIONS, FunctionCall, Functions
+from sc2jax.environment.interface.players import BotBuild, Difficulty, Race
 from sc2jax.environment.pysc2.env.environment import StepType, TimeStep
 from sc2jax.environment.pysc2.lib import actions
 from sc2jax.environment.pysc2.lib.features import (
@@ -39,35 +39,6 @@ from sc2jax.environment.sc2_env import make
 __all__ = ["ActionSpace", "Agent", "AgentInterfaceFormat", "Bot", "BotBuild", "Difficulty",
            "Dimensions", "Race", "SC2Env", "StepType", "TimeStep",
            "parse_agent_interface_format"]
-
-
-class Race(enum.IntEnum):
-    random = 4
-    protoss = 3
-    terran = 1
-    zerg = 2
-
-
-class Difficulty(enum.IntEnum):
-    very_easy = 1
-    easy = 2
-    medium = 3
-    medium_hard = 4
-    hard = 5
-    harder = 6
-    very_hard = 7
-    cheat_vision = 8
-    cheat_money = 9
-    cheat_insane = 10
-
-
-class BotBuild(enum.IntEnum):
-    random = 1
-    rush = 2
-    timing = 3
-    power = 4
-    macro = 5
-    air = 6
 
 
 class Agent(collections.namedtuple("Agent", ["race", "name"])):
