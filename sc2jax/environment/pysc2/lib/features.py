@@ -13,6 +13,7 @@ import dataclasses
 import enum
 
 from sc2jax.environment.interface.arguments import normalize_size
+from sc2jax.environment.interface.camera import CAMERA_WIDTH
 from sc2jax.environment.interface.features import (
     MINIMAP_FEATURES,
     SCREEN_FEATURES,
@@ -40,10 +41,6 @@ __all__ = ["MINIMAP_FEATURES", "SCREEN_FEATURES", "ActionSpace", "AgentInterface
            "PlayerRelative", "ProductionQueue", "ScoreByCategory", "ScoreByVital",
            "ScoreCategories", "ScoreCumulative", "ScoreVitals", "UnitLayer", "Visibility",
            "parse_agent_interface_format"]
-
-CAMERA_WIDTH = 24
-"""The simulator's camera width in world units (PySC2's default)."""
-
 
 class ActionSpace(enum.Enum):
     FEATURES = 1
@@ -113,8 +110,8 @@ class AgentInterfaceFormat:
                              f"simulator takes feature-layer actions (ActionSpace.FEATURES)")
         if self.camera_width_world_units not in (None, CAMERA_WIDTH):
             raise ValueError(f"camera_width_world_units={self.camera_width_world_units!r} "
-                             f"is not supported; the simulator's camera is {CAMERA_WIDTH} "
-                             f"world units wide (None or {CAMERA_WIDTH})")
+                             f"is not supported; the simulator's camera is {CAMERA_WIDTH:g} "
+                             f"world units wide (None or {CAMERA_WIDTH:g})")
         if not self.hide_specific_actions:
             raise ValueError("hide_specific_actions=False is not supported: the simulator "
                              "lists the general functions only (PySC2's default, True)")
