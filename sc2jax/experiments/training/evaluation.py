@@ -24,8 +24,10 @@ from sc2jax.checks import check_positive_int
 from sc2jax.environment.agents import random_action, scripted_policy
 from sc2jax.environment.agents.calls import Policy
 from sc2jax.environment.engine.simulator import Simulator
+from sc2jax.environment.episodes import Episode
 from sc2jax.environment.interface.dense import DenseAction
 from sc2jax.environment.interface.specs import ObservationFormat
+from sc2jax.experiments.training.actor import ActorCore
 
 AGENTS = ("random", "scripted")
 
@@ -94,18 +96,24 @@ def _episode_batch(sim: Simulator, policy: Policy, num_envs: int):
     return jax.jit(jax.vmap(one_env))
 
 
-def core_episodes_fn(sim: Simulator, core, num_envs: int):
+def core_episodes_fn(sim: Simulator, core, num_envs: int, record: bool = False):
     """A pure function (params, key) -> (returns float32[num_envs], lengths
     int32[num_envs], done bool[num_envs]): one episode in each of `num_envs`
     environments, acting with an `ActorCore` (vmap it over parameters to evaluate many
-    policies at once)."""
+    policies at once).
+
+    With `record`, it also returns each environment's reset key (uint32[num_envs, 2]),
+    and the actions (a `DenseAction` [T, num_envs]) and rewards (float32[T, num_envs])
+    of every step (those after an episode's end included), for `record_episodes`.
+    """
     length = max_episode_steps(sim)
     reset = jax.vmap(sim.reset)
     step = jax.vmap(lambda state, action, obs: sim.step(state, action, previous=obs))
 
     def run(params, key):
         reset_key, run_key = jax.random.split(key)
-        state, ts = reset(jax.random.split(reset_key, num_envs))
+        reset_keys = jax.random.split(reset_key, num_envs)
+        state, ts = reset(reset_keys)
 
         def body(carry, key):
             state, ts, core_carry, done, score, steps = carry
@@ -114,15 +122,66 @@ def core_episodes_fn(sim: Simulator, core, num_envs: int):
             state, ts = step(state, action, ts.observation)
             score = score + jnp.where(done, 0.0, ts.reward)
             steps = steps + jnp.where(done, 0, 1)
-            return (state, ts, core_carry, done | ts.last(), score, steps), None
+            carry = (state, ts, core_carry, done | ts.last(), score, steps)
+            return carry, (action, ts.reward) if record else None
 
         init = (state, ts, core.initial_carry(num_envs), jnp.zeros(num_envs, bool),
                 jnp.zeros(num_envs, jnp.float32), jnp.zeros(num_envs, jnp.int32))
-        (_, _, _, done, score, steps), _ = jax.lax.scan(
+        (_, _, _, done, score, steps), trace = jax.lax.scan(
             body, init, jax.random.split(run_key, length))
+        if record:
+            return score, steps, done, reset_keys, trace[0], trace[1]
         return score, steps, done
 
     return run
+
+
+def policy_core(policy: Policy) -> ActorCore:
+    """A `Policy` as a feed-forward `ActorCore` (no parameters, no carry)."""
+
+    def act(params, key, carry, obs, first):
+        del params, first
+        keys = jax.random.split(key, jnp.shape(obs["available_actions_mask"])[0])
+        action = jax.vmap(policy)(keys, obs)
+        return carry, action, jnp.zeros(keys.shape[0], jnp.float32)
+
+    return ActorCore(initial_carry=lambda num_envs: None, act=act, observe=lambda obs: obs)
+
+
+def record_episodes(sim: Simulator, core, params, episodes: int, seed: int = 0,
+                    agent: str = "", game_steps_per_episode: int = 0) -> list[Episode]:
+    """Plays `episodes` episodes (one batch) and returns them as `Episode`s to save and
+    replay (`sc2jax.environment.episodes`).
+
+    Args:
+      sim: the simulator.
+      core: an `ActorCore` (`policy_core` for a random or scripted policy).
+      params: the core's parameters (None for a policy).
+      episodes: how many (>= 1), played side by side.
+      seed: RNG seed.
+      agent: who played, stored in each episode.
+      game_steps_per_episode: stored in each episode; the episodes here run to the
+        map's own end.
+    """
+    check_positive_int("episodes", episodes)
+    run = jax.jit(core_episodes_fn(sim, core, episodes, record=True))
+    _, steps, done, keys, actions, rewards = jax.device_get(
+        run(params, jax.random.PRNGKey(seed)))
+    out = []
+    for i in range(episodes):
+        if not done[i]:
+            raise RuntimeError(f"episode {i} did not end within {max_episode_steps(sim)} "
+                               f"steps")
+        n = int(steps[i])
+        out.append(Episode(
+            map_name=sim.map_name, screen_size=sim.fmt.screen_size,
+            minimap_size=sim.fmt.minimap_size, step_mul=sim.step_mul,
+            key=np.asarray(keys[i], np.uint32),
+            actions=DenseAction(*(np.asarray(a[:n, i]) for a in actions)),
+            rewards=np.asarray(rewards[:n, i], np.float32), score_index=sim.score_index,
+            score_multiplier=sim.score_multiplier,
+            game_steps_per_episode=game_steps_per_episode, agent=agent))
+    return out
 
 
 @functools.cache

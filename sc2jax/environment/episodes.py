@@ -1,0 +1,195 @@
+"""Recorded episodes of the simulator: the map, the reset key and the actions.
+
+The simulator is deterministic: the same reset key and the same actions give the same
+episode, bit for bit. So an episode is saved compactly as its settings, the key its
+state was reset with, and its `DenseAction`s, one per agent step (a 240-step episode is
+a few kilobytes). `replay` recomputes every state, observation and reward from them.
+`Episode.rewards` keeps the rewards seen when it was recorded, so a replay can be checked
+against them (`check_replay`).
+
+Files are NumPy `.npz` archives (`save_episode`, `load_episode`), written atomically.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import functools
+import io
+import os
+import zipfile
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+
+from sc2jax.atomic import atomic_write
+from sc2jax.environment.engine.compiled import simulator
+from sc2jax.environment.engine.minigames import check_map
+from sc2jax.environment.engine.simulator import EnvParams, Simulator
+from sc2jax.environment.interface import specs
+from sc2jax.environment.interface.dense import DenseAction
+
+FORMAT = "sc2jax-episode-1"
+"""The file format's name and version, stored in every file."""
+
+
+class EpisodeError(ValueError):
+    """An episode file that cannot be read: missing, corrupt, or of another format."""
+
+
+@dataclasses.dataclass(frozen=True)
+class Episode:
+    """One recorded episode of the simulator.
+
+    Attributes:
+      map_name: the mini-game.
+      screen_size, minimap_size: (x, y) resolutions the actions' points refer to.
+      step_mul: game loops per agent step.
+      score_index, score_multiplier: the reward (as `Simulator`).
+      game_steps_per_episode: the episode limit in game loops (0: the map's own).
+      key: uint32[2] the key the episode's state was reset with.
+      actions: a `DenseAction` whose fields have a leading [T] axis (int32).
+      rewards: float32[T] the reward of each step when recorded.
+      agent: who played (free text: "random", a run directory, "human", ...).
+    """
+
+    map_name: str
+    screen_size: tuple[int, int]
+    minimap_size: tuple[int, int]
+    step_mul: int
+    key: np.ndarray
+    actions: DenseAction
+    rewards: np.ndarray
+    score_index: int = 0
+    score_multiplier: float = 1.0
+    game_steps_per_episode: int = 0
+    agent: str = ""
+
+    def __post_init__(self):
+        check_map(self.map_name)
+        steps = len(self.rewards)
+        for name, field in zip(DenseAction._fields, self.actions):
+            if np.shape(field)[:1] != (steps,):
+                raise ValueError(f"action field {name} has shape {np.shape(field)}; every "
+                                 f"field needs a leading axis of the {steps} steps")
+        if np.shape(self.key) != (2,):
+            raise ValueError(f"key must be uint32[2], got shape {np.shape(self.key)}")
+
+    @property
+    def num_steps(self) -> int:
+        return len(self.rewards)
+
+    @property
+    def score(self) -> float:
+        """The recorded return: the sum of the rewards."""
+        return float(np.sum(self.rewards, dtype=np.float64))
+
+    def simulator(self, fmt: specs.ObservationFormat | None = None) -> Simulator:
+        """The simulator that replays it, rendering `fmt` (default: every layer at the
+        recorded resolutions; the layers do not change the game)."""
+        fmt = fmt or specs.ObservationFormat(screen_size=self.screen_size,
+                                             minimap_size=self.minimap_size)
+        if (fmt.screen_size, fmt.minimap_size) != (tuple(self.screen_size),
+                                                   tuple(self.minimap_size)):
+            raise ValueError(f"the episode's actions are at screen {self.screen_size} and "
+                             f"minimap {self.minimap_size}; fmt has {fmt.screen_size} and "
+                             f"{fmt.minimap_size}")
+        return simulator(self.map_name, fmt, self.step_mul, self.score_index,
+                         float(self.score_multiplier), 1.0, False)
+
+    @property
+    def params(self) -> EnvParams:
+        return EnvParams(game_steps_per_episode=np.int32(self.game_steps_per_episode))
+
+
+@functools.cache
+def _replay_fn(sim: Simulator):
+    """jit((key, actions [T], params) -> (states [T + 1], timesteps [T + 1]))."""
+
+    def run(key, actions, params):
+        state, first = sim.reset(key, params)
+
+        def body(state, action):
+            state, timestep = sim.step(state, action, params)
+            return state, (state, timestep)
+
+        _, (states, timesteps) = jax.lax.scan(body, state, actions)
+        return jax.tree.map(lambda a, b: jnp.concatenate([a[None], b]), (state, first),
+                            (states, timesteps))
+
+    return jax.jit(run)
+
+
+def replay(episode: Episode, fmt: specs.ObservationFormat | None = None):
+    """Replays an episode in the simulator.
+
+    Returns:
+      (states, timesteps): the `EnvState` and the `dm_env.TimeStep` (padded layout) after
+      the reset and after each step, each leaf with a leading [T + 1] axis.
+    """
+    sim = episode.simulator(fmt)
+    actions = DenseAction(*(np.asarray(a, np.int32) for a in episode.actions))
+    return _replay_fn(sim)(np.asarray(episode.key, np.uint32), actions, episode.params)
+
+
+def check_replay(episode: Episode, timesteps) -> None:
+    """Raises AssertionError unless a replay's rewards equal the recorded ones bit for bit."""
+    rewards = np.asarray(timesteps.reward)[1:]
+    if not np.array_equal(rewards, np.asarray(episode.rewards, np.float32)):
+        where = np.flatnonzero(rewards != episode.rewards)
+        raise AssertionError(f"the replay's rewards differ from the recorded ones at steps "
+                             f"{where[:10].tolist()} (score {rewards.sum()} against "
+                             f"{episode.score})")
+
+
+def save_episode(path: str | os.PathLike, episode: Episode) -> None:
+    """Writes an episode to a `.npz` file, atomically."""
+    arrays = {f"action_{name}": np.asarray(field, np.int32)
+              for name, field in zip(DenseAction._fields, episode.actions)}
+    arrays.update(
+        format=np.str_(FORMAT), map_name=np.str_(episode.map_name),
+        agent=np.str_(episode.agent), key=np.asarray(episode.key, np.uint32),
+        rewards=np.asarray(episode.rewards, np.float32),
+        screen_size=np.asarray(episode.screen_size, np.int32),
+        minimap_size=np.asarray(episode.minimap_size, np.int32),
+        step_mul=np.int32(episode.step_mul), score_index=np.int32(episode.score_index),
+        score_multiplier=np.float64(episode.score_multiplier),
+        game_steps_per_episode=np.int32(episode.game_steps_per_episode))
+    with atomic_write(path, "wb") as f:
+        np.savez_compressed(f, **arrays)
+
+
+def load_episode(path: str | os.PathLike) -> Episode:
+    """Reads an episode written by `save_episode`.
+
+    Raises:
+      EpisodeError: the file is missing, is not an episode file, is of another format
+        version, or holds bad values.
+    """
+    path = os.fspath(path)
+    try:
+        with open(path, "rb") as f:
+            data = f.read()
+        with np.load(io.BytesIO(data), allow_pickle=False) as z:
+            arrays = {name: z[name] for name in z.files}
+    except FileNotFoundError:
+        raise EpisodeError(f"no episode file at {path!r}") from None
+    except (OSError, ValueError, zipfile.BadZipFile, EOFError) as error:
+        raise EpisodeError(f"{path!r} is not a readable episode file ({error})") from None
+    fmt = str(arrays.get("format", ""))
+    if fmt != FORMAT:
+        raise EpisodeError(f"{path!r} is not an episode file of format {FORMAT!r} (its "
+                           f"format: {fmt or 'none'!r})")
+    try:
+        return Episode(
+            map_name=str(arrays["map_name"]), agent=str(arrays["agent"]),
+            screen_size=tuple(int(v) for v in arrays["screen_size"]),
+            minimap_size=tuple(int(v) for v in arrays["minimap_size"]),
+            step_mul=int(arrays["step_mul"]), key=arrays["key"].astype(np.uint32),
+            actions=DenseAction(*(arrays[f"action_{name}"] for name in DenseAction._fields)),
+            rewards=arrays["rewards"].astype(np.float32),
+            score_index=int(arrays["score_index"]),
+            score_multiplier=float(arrays["score_multiplier"]),
+            game_steps_per_episode=int(arrays["game_steps_per_episode"]))
+    except (KeyError, ValueError, TypeError) as error:
+        raise EpisodeError(f"{path!r} holds a bad episode: {error}") from None
