@@ -151,7 +151,8 @@ def policy_core(policy: Policy) -> ActorCore:
 def record_episodes(sim: Simulator, core, params, episodes: int, seed: int = 0,
                     agent: str = "", game_steps_per_episode: int = 0) -> list[Episode]:
     """Plays `episodes` episodes (one batch) and returns them as `Episode`s to save and
-    replay (`sc2jax.environment.episodes`).
+    replay (`sc2jax.environment.episodes`): the same episodes as the first batch of
+    `run_core_episodes` with the same seed and `num_envs=episodes`.
 
     Args:
       sim: the simulator.
@@ -165,8 +166,8 @@ def record_episodes(sim: Simulator, core, params, episodes: int, seed: int = 0,
     """
     check_positive_int("episodes", episodes)
     run = jax.jit(core_episodes_fn(sim, core, episodes, record=True))
-    _, steps, done, keys, actions, rewards = jax.device_get(
-        run(params, jax.random.PRNGKey(seed)))
+    _, batch_key = jax.random.split(jax.random.PRNGKey(seed))  # As `_collect`'s first.
+    _, steps, done, keys, actions, rewards = jax.device_get(run(params, batch_key))
     out = []
     for i in range(episodes):
         if not done[i]:
