@@ -54,6 +54,13 @@ ALIASES = {
     "CreepTumorBurrowedBuild": "CreepTumorBuild",
     # Spelling.
     "TemplarArchiveResearch": "TemplarArchivesResearch",
+    # The queen, trained at a hatchery, lair or hive (sc2reader's tables name link 243
+    # or 245 after one of the three; index 0 is the queen in each).
+    "HatcheryTrain": "TrainQueen",
+    "LairTrain": "TrainQueen",
+    "HiveTrain": "TrainQueen",
+    # A zergling's morph to a baneling.
+    "ZerglingTrain": "MorphZerglingToBaneling",
 }
 """sc2reader's ability names that stableid.json knows under another name."""
 

@@ -112,6 +112,13 @@ def test_abilities_map_to_pysc2_functions():
     assert function_for_ability(23, FunctionType.cmd_screen) == FUNCTIONS.Attack_screen.id
     assert function_for_ability(23, FunctionType.cmd_minimap) == FUNCTIONS.Attack_minimap.id
     assert resolve(76114, 10**6, 0, FunctionType.cmd_quick).function is None
+    # sc2reader names the queen's training after the hatchery's morphs and the baneling's
+    # morph after the zergling; stableid names them TrainQueen and MorphZerglingToBaneling.
+    for build, link in ((76114, 243), (80949, 245)):
+        assert resolve(build, link, 0, FunctionType.cmd_quick).function == (
+            FUNCTIONS.Train_Queen_quick.id)
+    assert resolve(76114, 73, 0, FunctionType.cmd_quick).function == (
+        FUNCTIONS.Train_Baneling_quick.id)
 
 
 def test_a_corrupt_and_a_truncated_file_are_replay_errors(tmp_path):
