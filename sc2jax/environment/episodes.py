@@ -104,7 +104,7 @@ class Episode:
 
 @functools.cache
 def _replay_fn(sim: Simulator):
-    """jit((key, actions [T], params) -> (states [T + 1], timesteps [T + 1]))."""
+    """jit((keys [B], actions [T, B], params) -> (states [B, T + 1], timesteps [B, T + 1]))."""
 
     def run(key, actions, params):
         state, first = sim.reset(key, params)
@@ -117,19 +117,48 @@ def _replay_fn(sim: Simulator):
         return jax.tree.map(lambda a, b: jnp.concatenate([a[None], b]), (state, first),
                             (states, timesteps))
 
-    return jax.jit(run)
+    return jax.jit(jax.vmap(run, in_axes=(0, 1, None)))
 
 
-def replay(episode: Episode, fmt: specs.ObservationFormat | None = None):
-    """Replays an episode in the simulator.
+def replay(episodes: Episode | list[Episode], fmt: specs.ObservationFormat | None = None):
+    """Replays an episode, or several of the same settings side by side, in the simulator.
+
+    Args:
+      episodes: an `Episode`, or a list of episodes whose settings (map, sizes, step_mul,
+        reward, limit) are the same; shorter ones are padded with `no_op`s, whose steps
+        (after the episode's end: a new episode) are returned too.
+      fmt: the layers to render (default: every layer; see `Episode.simulator`).
 
     Returns:
       (states, timesteps): the `EnvState` and the `dm_env.TimeStep` (padded layout) after
-      the reset and after each step, each leaf with a leading [T + 1] axis.
+      the reset and after each step, each leaf with a leading [T + 1] axis, or
+      [B, T_max + 1] for a list.
+
+    Raises:
+      ValueError: for an empty list or episodes of different settings.
     """
-    sim = episode.simulator(fmt)
-    actions = DenseAction(*(np.asarray(a, np.int32) for a in episode.actions))
-    return _replay_fn(sim)(np.asarray(episode.key, np.uint32), actions, episode.params)
+    batch = list(episodes) if isinstance(episodes, (list, tuple)) else [episodes]
+    if not batch:
+        raise ValueError("no episodes to replay")
+    settings = {_settings(e) for e in batch}
+    if len(settings) > 1:
+        raise ValueError(f"episodes replayed together need the same settings; got "
+                         f"{sorted(settings)}")
+    length = max(e.num_steps for e in batch)
+    actions = DenseAction(*(np.stack([
+        np.pad(np.asarray(field, np.int32), [(0, length - e.num_steps)]
+               + [(0, 0)] * (np.ndim(field) - 1))
+        for e, field in zip(batch, fields)], axis=1)
+        for fields in zip(*(e.actions for e in batch))))
+    keys = np.stack([np.asarray(e.key, np.uint32) for e in batch])
+    out = _replay_fn(batch[0].simulator(fmt))(keys, actions, batch[0].params)
+    return out if isinstance(episodes, (list, tuple)) else jax.tree.map(lambda x: x[0], out)
+
+
+def _settings(episode: Episode) -> tuple:
+    return (episode.map_name, tuple(episode.screen_size), tuple(episode.minimap_size),
+            episode.step_mul, episode.score_index, episode.score_multiplier,
+            episode.game_steps_per_episode)
 
 
 def check_replay(episode: Episode, timesteps) -> None:
