@@ -120,7 +120,8 @@ def _replay_fn(sim: Simulator):
     return jax.jit(jax.vmap(run, in_axes=(0, 1, None)))
 
 
-def replay(episodes: Episode | list[Episode], fmt: specs.ObservationFormat | None = None):
+def replay(episodes: Episode | list[Episode], fmt: specs.ObservationFormat | None = None,
+           pad_to: int | None = None):
     """Replays an episode, or several of the same settings side by side, in the simulator.
 
     Args:
@@ -128,6 +129,8 @@ def replay(episodes: Episode | list[Episode], fmt: specs.ObservationFormat | Non
         reward, limit) are the same; shorter ones are padded with `no_op`s, whose steps
         (after the episode's end: a new episode) are returned too.
       fmt: the layers to render (default: every layer; see `Episode.simulator`).
+      pad_to: replay at least this many steps, padding with `no_op`s (one compiled
+        program for episodes of any length up to it; `max_steps` is the map's longest).
 
     Returns:
       (states, timesteps): the `EnvState` and the `dm_env.TimeStep` (padded layout) after
@@ -144,7 +147,7 @@ def replay(episodes: Episode | list[Episode], fmt: specs.ObservationFormat | Non
     if len(settings) > 1:
         raise ValueError(f"episodes replayed together need the same settings; got "
                          f"{sorted(settings)}")
-    length = max(e.num_steps for e in batch)
+    length = max([e.num_steps for e in batch] + [pad_to or 0])
     actions = DenseAction(*(np.stack([
         np.pad(np.asarray(field, np.int32), [(0, length - e.num_steps)]
                + [(0, 0)] * (np.ndim(field) - 1))
@@ -153,6 +156,11 @@ def replay(episodes: Episode | list[Episode], fmt: specs.ObservationFormat | Non
     keys = np.stack([np.asarray(e.key, np.uint32) for e in batch])
     out = _replay_fn(batch[0].simulator(fmt))(keys, actions, batch[0].params)
     return out if isinstance(episodes, (list, tuple)) else jax.tree.map(lambda x: x[0], out)
+
+
+def max_steps(episode: Episode) -> int:
+    """The agent steps of the map's longest episode (its timer) at the episode's step_mul."""
+    return -(-episode.simulator().game.time_limit_loops // episode.step_mul)
 
 
 def _settings(episode: Episode) -> tuple:

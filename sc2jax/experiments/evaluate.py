@@ -5,6 +5,8 @@ r"""Evaluates an agent on a mini-game of the embedded simulator, or on StarCraft
     python -m sc2jax.experiments.evaluate --run_dir=/tmp/runs/beacon --episodes=100
     python -m sc2jax.experiments.evaluate --run_dir=/tmp/runs/beacon --backend=sc2 \
         --num_envs=4
+    python -m sc2jax.experiments.evaluate --map=DefeatRoaches --agent=scripted \
+        --episodes=4 --video=/tmp/videos --record=/tmp/episodes
 
 The agent is random, scripted, or (with `--run_dir`) a trained network restored from
 a training run's last checkpoint (or `--checkpoint_step`): an A3C run plays its own map
@@ -17,11 +19,17 @@ Prints the mean, std and max episode score beside the paper's Table 1, and with
 `--output` writes them as JSON: `episodes`, `mean`, `std`, `max`, `min`, `scores` (every
 episode's score) and the resolved `config` (for a trained run, its own map, agent,
 sizes, action set and the agent steps it was trained for).
+
+With `--video=DIR` it then plays `--video_episodes` more episodes with `--seed` and writes
+a video of each (the human view beside feature layers, captioned with the score, the
+step and the action), and a grid of them; with `--record=DIR` it saves those episodes
+as files that replay exactly (`sc2jax.environment.episodes`).
 """
 
 from __future__ import annotations
 
 import dataclasses
+import os
 import sys
 import time
 
@@ -30,6 +38,7 @@ from absl import app, flags
 from sc2jax.atomic import write_json_atomic
 from sc2jax.environment import MAPS, make
 from sc2jax.environment.agents import required_format
+from sc2jax.environment.episodes import save_episode
 from sc2jax.environment.interface.specs import ObservationFormat
 from sc2jax.environment.sc2api.game_env import GameEnvBatch
 from sc2jax.experiments.reporting.paper import paper_rows
@@ -37,6 +46,7 @@ from sc2jax.experiments.training import evaluation, pretrained, trainer
 from sc2jax.experiments.training import flags as training_flags
 from sc2jax.experiments.training.actor import actor_core
 from sc2jax.experiments.training.config import BACKENDS
+from sc2jax.experiments.viewer import frames, video
 
 _MAP, _BACKEND, _SC2PATH, _NUM_ENVS, _SCREEN, _MINIMAP, _STEP_MUL, _SEED = training_flags.define(
     ("map", "backend", "sc2path", "num_envs", "screen_size", "minimap_size", "step_mul", "seed"),
@@ -55,6 +65,21 @@ _BEST = flags.DEFINE_bool("best", False, "Evaluate the run's best parameters (RU
                           "periodic evaluation) instead.")
 _TEMPERATURE = flags.DEFINE_float("temperature", 1.0, "Softmax temperature of a trained "
                                   "network's actions.")
+_VIDEO = flags.DEFINE_string("video", None, "Write videos of the first --video_episodes "
+                             "episodes to this directory: one per episode (the human view "
+                             "beside --video_layers, with the score, step and action), and "
+                             "a grid of them all.")
+_RECORD = flags.DEFINE_string("record", None, "Save the first --video_episodes episodes to "
+                              "this directory as episode files (map, seed and actions; "
+                              "`python -m sc2jax.experiments.play --episode=FILE` shows one).")
+_VIDEO_EPISODES = flags.DEFINE_integer("video_episodes", 4, "Episodes for --video and "
+                                       "--record, played with --seed.")
+_VIDEO_FORMAT = flags.DEFINE_enum("video_format", "gif", list(video.FORMATS),
+                                  "gif, or mp4 (needs pip install 'sc2jax[video]').")
+_VIDEO_LAYERS = flags.DEFINE_list("video_layers", list(frames.DEFAULT_LAYERS),
+                                  "Feature layers shown beside the human view.")
+_VIDEO_WIDTH = flags.DEFINE_integer("video_width", 256, "The human view's width in pixels.")
+_VIDEO_FPS = flags.DEFINE_float("video_fps", 8.0, "Video frames (agent steps) per second.")
 
 
 def check_flags() -> None:
@@ -77,6 +102,19 @@ def check_flags() -> None:
     if not _TEMPERATURE.value > 0:
         raise ValueError(f"--temperature must be > 0, got {_TEMPERATURE.value}")
     ObservationFormat(screen_size=_SCREEN.value, minimap_size=_MINIMAP.value)  # The sizes.
+    if _VIDEO.value or _RECORD.value:
+        if _BACKEND.value != "simulator":
+            raise ValueError("--video and --record replay the simulator's episodes: they need "
+                             "--backend=simulator")
+        if _VIDEO_EPISODES.value < 1:
+            raise ValueError(f"--video_episodes must be >= 1, got {_VIDEO_EPISODES.value}")
+        if not 8 <= _VIDEO_WIDTH.value <= 4096:
+            raise ValueError(f"--video_width must be in [8, 4096], got {_VIDEO_WIDTH.value}")
+        if not _VIDEO_FPS.value > 0:
+            raise ValueError(f"--video_fps must be > 0, got {_VIDEO_FPS.value}")
+        frames.parse_layers(_VIDEO_LAYERS.value)
+        if _VIDEO.value:
+            video.check_format(_VIDEO_FORMAT.value)
 
 flags.adopt_module_key_flags(training_flags)
 
@@ -107,6 +145,7 @@ def main(argv) -> None:
         print(f"Restored {replay_run.agent} after {replay_run.update} updates on replays "
               f"from {_RUN_DIR.value}")
         sim = replay_run.simulator(map_name)
+        acting = (core, replay_run.params)
 
         def run(on_batch):
             return evaluation.run_core_episodes(sim, core, replay_run.params,
@@ -138,6 +177,7 @@ def main(argv) -> None:
                                                         bot=None)).sim
             except ValueError as error:
                 sys.exit(f"error: {error}")
+            acting = (core, params)
 
             def run(on_batch):
                 return evaluation.run_core_episodes(sim, core, params, _EPISODES.value,
@@ -159,6 +199,7 @@ def main(argv) -> None:
         else:
             sim = make(map_name, **sizes).simulator
             policy = evaluation.make_policy(agent_name, map_name, sim.fmt)
+            acting = (evaluation.policy_core(policy), None)
 
             def run(on_batch):
                 return evaluation.run_episodes(sim, policy, _EPISODES.value,
@@ -195,6 +236,37 @@ def main(argv) -> None:
                                           "steps": stats.steps.tolist(),
                                           "config": {**flag_values, **resolved}})
         print(f"Wrote {_OUTPUT.value}")
+    if _VIDEO.value or _RECORD.value:
+        _write_episodes(sim, *acting, agent_name)
+
+
+def _write_episodes(sim, core, params, agent_name: str) -> None:
+    """Plays --video_episodes episodes and writes them (--record) and their videos
+    (--video)."""
+    count = _VIDEO_EPISODES.value
+    start = time.time()
+    episodes = evaluation.record_episodes(sim, core, params, count, _SEED.value, agent_name)
+    print(f"Played {count} episodes to record (scores "
+          f"{[round(e.score, 2) for e in episodes]}) [{time.time() - start:.0f} s]")
+    if _RECORD.value:
+        for i, episode in enumerate(episodes):
+            save_episode(os.path.join(_RECORD.value, f"episode_{i:03d}.npz"), episode)
+        print(f"Saved {count} episodes to {_RECORD.value}")
+    if not _VIDEO.value:
+        return
+    layers = frames.parse_layers(_VIDEO_LAYERS.value)
+    ext = _VIDEO_FORMAT.value
+    drawn = []
+    for i, episode in enumerate(episodes):
+        drawn.append(frames.episode_pictures(episode, _VIDEO_WIDTH.value, layers))
+        path = os.path.join(_VIDEO.value, f"episode_{i:03d}.{ext}")
+        video.write_video(path, frames.episode_frames(episode, drawn[-1], layers),
+                          _VIDEO_FPS.value)
+        print(f"Wrote {path} [{time.time() - start:.0f} s]")
+    if count > 1:
+        path = os.path.join(_VIDEO.value, f"grid.{ext}")
+        video.write_video(path, frames.batch_frames(drawn), _VIDEO_FPS.value)
+        print(f"Wrote {path} [{time.time() - start:.0f} s]")
 
 
 if __name__ == "__main__":

@@ -13,6 +13,7 @@ from sc2jax.environment import FUNCTIONS, FeatureUnit, ObservationFormat, Simula
 from sc2jax.environment.agents import required_format, scripted_policy
 from sc2jax.environment.agents.scripted_economy import DEPOT_SITES, _to_pixel
 from sc2jax.environment.engine.compiled import simulator
+from sc2jax.environment.episodes import check_replay, load_episode, replay
 from sc2jax.environment.interface.observation_tables import Player
 from sc2jax.environment.server.install_layout import write_sc2path
 from sc2jax.experiments.training import evaluation
@@ -126,6 +127,10 @@ def test_evaluate_rejects_bad_flags_before_compiling(tmp_path):
     out = subprocess.run([sys.executable, "-m", "sc2jax.experiments.evaluate",
                           "--episodes=0"], capture_output=True, text=True, timeout=120)
     assert out.returncode != 0 and "--episodes must be >= 1, got 0" in out.stderr
+    out = subprocess.run([sys.executable, "-m", "sc2jax.experiments.evaluate",
+                          f"--video={tmp_path}", "--video_layers=screen/nope"],
+                         capture_output=True, text=True, timeout=120)
+    assert out.returncode != 0 and "unknown layer 'screen/nope'" in out.stderr
 
 
 @pytest.mark.slow
@@ -134,9 +139,21 @@ def test_evaluate_writes_json(tmp_path):
     out = subprocess.run(
         [sys.executable, "-m", "sc2jax.experiments.evaluate", "--map=MoveToBeacon",
          "--agent=random", "--episodes=2", "--num_envs=2", "--screen_size=16",
-         "--minimap_size=16", "--step_mul=64", f"--output={path}"],
+         "--minimap_size=16", "--step_mul=64", f"--output={path}",
+         f"--video={tmp_path / 'videos'}", f"--record={tmp_path / 'episodes'}",
+         "--video_episodes=2", "--video_width=64"],
         capture_output=True, text=True, timeout=300)
     assert out.returncode == 0, out.stderr
+    # Two episodes recorded, a GIF of each (31 observations: 30 steps of 64 loops) and a
+    # grid; a recorded episode replays to its score.
+    import imageio.v3 as iio
+
+    for i in range(2):
+        episode = load_episode(tmp_path / "episodes" / f"episode_{i:03d}.npz")
+        assert episode.num_steps == 30 and episode.agent == "random"
+        check_replay(episode, replay(episode)[1])
+        assert iio.imread(tmp_path / "videos" / f"episode_{i:03d}.gif").shape[0] == 31
+    assert (tmp_path / "videos" / "grid.gif").exists()
     result = json.loads(path.read_text())
     assert result["episodes"] == 2 and len(result["scores"]) == 2
     assert result["mean"] == pytest.approx(np.mean(result["scores"]))
