@@ -554,6 +554,48 @@ def load_run(run_dir: str, step: int | None = None,
     return (agent, *restore_params(agent, run_dir, step, best))
 
 
+@dataclasses.dataclass(frozen=True)
+class TrainedAgent:
+    """A trained network ready to act on the simulator.
+
+    Attributes:
+      sim: the simulator it plays: an A3C run's own map and format, or for a replay run
+        the map asked for at the dataset's resolutions and step_mul.
+      core: its `ActorCore`.
+      params: its parameters.
+      name: what it is, e.g. "fullyconv" or "fullyconv (replays)".
+    """
+
+    sim: Simulator
+    core: ActorCore
+    params: Any
+    name: str
+
+
+def trained_agent(run_dir: str, map_name: str | None = None, temperature: float = 1.0,
+                  step: int | None = None, best: bool = False) -> TrainedAgent:
+    """The network trained in `run_dir` (A3C with `train`, or on replays with
+    `train_replays`), to play on the simulator: an A3C run on its own map (`map_name`
+    is ignored), a replay run on `map_name`.
+
+    Raises:
+      FileNotFoundError: if `run_dir` is not a run or lacks the checkpoint.
+      ValueError: for a replay run without `map_name`, or `best` for a replay run.
+    """
+    if pretrained.is_replay_run(run_dir):
+        if not map_name or best:
+            raise ValueError(f"{run_dir} is a replay run: it needs a map to play, and has "
+                             f"no best parameters")
+        run = pretrained.load_replay_run(run_dir, step)
+        return TrainedAgent(run.simulator(map_name), actor_core(run.network, temperature),
+                            run.params, f"{run.agent} (replays)")
+    agent, params, _ = load_run(run_dir, step, best)
+    config = agent.config
+    sim = build(dataclasses.replace(config, backend="simulator", bot=None)).sim
+    return TrainedAgent(sim, actor_core(agent.network, temperature, config.functions),
+                        params, config.agent)
+
+
 def restore_params(agent: Agent, run_dir: str, step: int | None = None,
                    best: bool = False) -> tuple[Any, dict]:
     """(parameters, metadata) of a run of `agent` (built from the run's config), as
