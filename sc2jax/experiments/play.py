@@ -5,6 +5,7 @@ layers, the score and the available functions (like PySC2's `pysc2.bin.play`).
     python -m sc2jax.experiments.play --map=DefeatRoaches --agent=scripted --speed=8
     python -m sc2jax.experiments.play --agent=/tmp/runs/beacon
     python -m sc2jax.experiments.play --episode=/tmp/episodes/episode_000.npz
+    python -m sc2jax.experiments.play --replay=GAME.SC2Replay --player=2
 
 It starts a web server, by default on 127.0.0.1 (this machine only: from elsewhere, use
 SSH port forwarding, `ssh -L 8000:127.0.0.1:8000 host`), and prints its address.
@@ -16,6 +17,9 @@ SSH port forwarding, `ssh -L 8000:127.0.0.1:8000 host`), and prints its address.
   and format; a replay run plays `--map`).
 - `--episode=FILE`: play back an episode recorded by `evaluate --record` or by `play
   --save`, with a timeline to scrub.
+- `--replay=FILE --player=ID`: a human replay decoded without the game, as the player saw
+  it (`viewer.replays`: the whole map at minimap level, the dataset's feature layers and
+  the player's PySC2 calls), with a timeline.
 """
 
 from __future__ import annotations
@@ -31,14 +35,20 @@ from sc2jax.environment.agents import required_format
 from sc2jax.environment.episodes import EpisodeError, load_episode, save_episode
 from sc2jax.experiments.training import evaluation, trainer
 from sc2jax.experiments.training import flags as training_flags
+from sc2jax.experiments.viewer.replays import ReplayPlayback
 from sc2jax.experiments.viewer.server import MAX_SPEED, ViewerServer
 from sc2jax.experiments.viewer.session import Playback, PlaySession
+from sc2jax.replay_sl import ReplayError
 
 _MAP, _SCREEN, _MINIMAP, _STEP_MUL, _SEED = training_flags.define(
     ("map", "screen_size", "minimap_size", "step_mul", "seed")).values()
 _AGENT = flags.DEFINE_string("agent", "human", "Who plays: human, random, scripted, or a "
                              "training run's directory.")
 _EPISODE = flags.DEFINE_string("episode", None, "Play back this episode file instead.")
+_REPLAY = flags.DEFINE_string("replay", None, "Show this StarCraft II replay instead.")
+_PLAYER = flags.DEFINE_integer("player", 1, "With --replay: whose view (1 or 2).")
+_FULL_INFORMATION = flags.DEFINE_bool("full_information", False, "With --replay: show every "
+                                      "enemy unit, not only those in sight.")
 _HOST = flags.DEFINE_string("host", "127.0.0.1", "Address to serve on (0.0.0.0 opens it to "
                             "the network).")
 _PORT = flags.DEFINE_integer("port", 8000, "Port to serve on (0: any free one).")
@@ -58,9 +68,14 @@ AGENTS = ("human", *evaluation.AGENTS)
 
 def check_flags() -> None:
     """Raises ValueError for bad flag values, before anything is compiled."""
-    if _EPISODE.value is None and _MAP.value not in MAPS:
+    if _EPISODE.value and _REPLAY.value:
+        raise ValueError("give --episode or --replay, not both")
+    if _REPLAY.value and not os.path.isfile(_REPLAY.value):
+        raise ValueError(f"--replay={_REPLAY.value!r} is not a file")
+    recorded = _EPISODE.value or _REPLAY.value
+    if not recorded and _MAP.value not in MAPS:
         raise ValueError(f"--map={_MAP.value!r} is unknown; allowed: {sorted(MAPS)}")
-    if (_EPISODE.value is None and _AGENT.value not in AGENTS
+    if (not recorded and _AGENT.value not in AGENTS
             and not os.path.isdir(_AGENT.value)):
         raise ValueError(f"--agent={_AGENT.value!r} is neither one of {list(AGENTS)} nor a "
                          f"training run's directory")
@@ -72,8 +87,11 @@ def check_flags() -> None:
         raise ValueError(f"--width must be in [64, 2048], got {_WIDTH.value}")
 
 
-def _source() -> PlaySession | Playback:
+def _source() -> PlaySession | Playback | ReplayPlayback:
     """The game or playback the flags ask for."""
+    if _REPLAY.value:
+        return ReplayPlayback(_REPLAY.value, _PLAYER.value, _WIDTH.value,
+                              _FULL_INFORMATION.value)
     if _EPISODE.value:
         return Playback(load_episode(_EPISODE.value), width=_WIDTH.value)
     agent, name, carry = None, None, None
@@ -99,7 +117,7 @@ def main(argv) -> None:
         check_flags()
         source = _source()
         server = ViewerServer(source, _HOST.value, _PORT.value, _SPEED.value, _PAUSED.value)
-    except (ValueError, FileNotFoundError, EpisodeError) as error:
+    except (ValueError, FileNotFoundError, EpisodeError, ReplayError) as error:
         sys.exit(f"error: {error}")
     print("Compiling the first step's pictures ...", flush=True)
     source.frame()

@@ -1,6 +1,7 @@
 """The viewer's web server: the page, its pictures, and a person's inputs, over HTTP.
 
-`ViewerServer(source, host, port)` serves a `PlaySession` or a `Playback` from a thread
+`ViewerServer(source, host, port)` serves a `PlaySession`, a `Playback` of a recorded
+episode or a `ReplayPlayback` of a human replay from a thread
 (Python's `http.server`), and steps it from another at the chosen speed unless paused.
 It serves its own three assets (the page, its script and its style) and nothing else
 from disk. The page asks for:
@@ -32,6 +33,7 @@ from PIL import Image
 
 from sc2jax.environment.interface.palettes import legend
 from sc2jax.experiments.viewer.frames import UNIT_NAMES
+from sc2jax.experiments.viewer.replays import ReplayPlayback
 from sc2jax.experiments.viewer.session import Playback, PlaySession
 
 ASSETS = {"/": ("index.html", "text/html; charset=utf-8"),
@@ -62,7 +64,7 @@ class ViewerServer:
     """Serves a session (or playback) on http://host:port and steps it.
 
     Args:
-      source: a `PlaySession` or a `Playback`.
+      source: a `PlaySession`, a `Playback` or a `ReplayPlayback`.
       host: the address to bind (127.0.0.1: this machine only).
       port: the port (0: any free one).
       speed: agent steps per second while playing.
@@ -72,7 +74,7 @@ class ViewerServer:
       ValueError: for a bad speed, or a port that is in use or not allowed.
     """
 
-    def __init__(self, source: PlaySession | Playback, host: str = "127.0.0.1",
+    def __init__(self, source: PlaySession | Playback | ReplayPlayback, host: str = "127.0.0.1",
                  port: int = 0, speed: float = 4.0, paused: bool = False):
         if not 0 < speed <= MAX_SPEED:
             raise ValueError(f"speed must be in (0, {MAX_SPEED}] steps per second, got "
@@ -153,7 +155,7 @@ class ViewerServer:
                 raise ValueError("reset applies to a game, not to a playback (seek to 0)")
             self.source.reset()
         if "seek" in request:
-            if not isinstance(self.source, Playback) or not isinstance(request["seek"], int):
+            if not hasattr(self.source, "seek") or not isinstance(request["seek"], int):
                 raise ValueError(f"seek takes an int step of a playback, got "
                                  f"{request['seek']!r}")
             self.source.seek(request["seek"])

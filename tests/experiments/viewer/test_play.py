@@ -2,6 +2,7 @@
 requests."""
 
 import json
+import pathlib
 import subprocess
 import sys
 import time
@@ -22,6 +23,7 @@ from sc2jax.experiments.viewer.session import Playback, PlaySession
 from tests.environment.helpers import SMALL, small_sim
 
 CAMERA = np.float32([33.0, 25.0])
+REPLAYS = pathlib.Path(__file__).parents[4] / "shared" / "replays"  # ../shared
 
 
 def _views(map_name="MoveToBeacon"):
@@ -171,3 +173,27 @@ def test_play_refuses_bad_flags_before_compiling():
                           "--episode=/no/such/file.npz"], capture_output=True, text=True,
                          timeout=120)
     assert out.returncode != 0 and "no episode file" in out.stderr
+
+
+@pytest.mark.slow
+def test_a_human_replay_is_shown_as_its_player_saw_it():
+    from sc2jax.experiments.viewer.replays import ReplayPlayback
+    from sc2jax.replay_sl import label_players, open_replay, read_metadata
+
+    path = REPLAYS / "asus_rog" / "0001_KairosJunction.SC2Replay"
+    with pytest.raises(ValueError, match="not one of the replay's players"):
+        ReplayPlayback(path, player_id=3)
+    playback = ReplayPlayback(path, player_id=2, width=256)
+    replay = open_replay(path)
+    labels = label_players(replay, read_metadata(replay), [2])[2]
+    assert playback.length == len(labels.steps)
+    playback.seek(1500)
+    frame = playback.frame()
+    assert frame.status["step"] == 1500 and frame.status["mode"] == "replay"
+    assert frame.status["game_loop"] == labels.steps[1500].game_loop
+    assert frame.status["last_call"].split("(")[0] == FUNCTIONS[
+        labels.steps[1500].call.function].name
+    assert frame.view.shape == (256, 256, 3) and len(frame.panels) == 38
+    assert (frame.view == 255).all(axis=-1).any()  # The camera's rectangle.
+    # The player's own units are drawn in the player's colour.
+    assert (frame.view == [0, 142, 0]).all(axis=-1).any()

@@ -96,14 +96,16 @@ async function poll() {
   }
   $("title").textContent = `sc2jax · ${status.map} · ${status.mode}` +
     (status.mode === "play" ? "" : ` (${status.agent})`);
-  $("numbers").textContent = `episode ${status.episode || 1} · step ${status.step} · ` +
-    `game loop ${status.game_loop} · score ${status.score}` +
+  $("numbers").textContent = (status.episode ? `episode ${status.episode} · ` : "") +
+    `step ${status.step} · ` +
+    `game loop ${status.game_loop} · ` +
+    (typeof status.score === "number" ? `score ${status.score}` : status.score) +
     (status.last_scores && status.last_scores.length ?
       ` · last scores ${status.last_scores.join(", ")}` : "");
   $("pause").textContent = status.paused ? "play" : "pause";
   $("speed-value").textContent = `${status.speed} steps/s`;
   if (status.error) message(status.error);
-  if (status.mode === "playback") {
+  if (status.length !== undefined) {  // A recording: playback or replay.
     $("timeline-box").hidden = false;
     $("timeline").max = status.length - 1;
     if (document.activeElement !== $("timeline")) $("timeline").value = status.step;
