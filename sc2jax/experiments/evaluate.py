@@ -78,7 +78,7 @@ _VIDEO_FORMAT = flags.DEFINE_enum("video_format", "gif", list(video.FORMATS),
                                   "gif, or mp4 (needs pip install 'sc2jax[video]').")
 _VIDEO_LAYERS = flags.DEFINE_list("video_layers", list(frames.DEFAULT_LAYERS),
                                   "Feature layers shown beside the human view.")
-_VIDEO_WIDTH = flags.DEFINE_integer("video_width", 256, "The human view's width in pixels.")
+_VIDEO_WIDTH = flags.DEFINE_integer("video_width", 384, "The human view's width in pixels.")
 _VIDEO_FPS = flags.DEFINE_float("video_fps", 8.0, "Video frames (agent steps) per second.")
 
 

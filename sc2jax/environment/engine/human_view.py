@@ -35,9 +35,16 @@ import numpy as np
 
 from sc2jax.environment.engine.render import draw_rank, rank_bound, rank_slot, sight_grid
 from sc2jax.environment.engine.rules.geometry import cell_lookup
-from sc2jax.environment.engine.rules.state import EnvState, Order, Owner
+from sc2jax.environment.engine.rules.state import (
+    EnvState,
+    Order,
+    Owner,
+    leading_slots,
+    slots_in_use,
+)
 from sc2jax.environment.engine.rules.units import UNIT_DATA, UnitType
 from sc2jax.environment.engine.simulator import Simulator
+from sc2jax.environment.engine.xla.lazy import smallest_fit
 from sc2jax.environment.interface.camera import CAMERA_WIDTH
 
 MARGIN = 3.0
@@ -175,16 +182,29 @@ class HumanView:
     # key at a pixel is drawn.
 
     def _marks(self, units, shown):
-        """int32[H * W]: the highest mark at each pixel, -1 where none."""
-        rank = draw_rank(units)
-        centre = self.to_pixels(units.pos)  # [N, 2]
-        radius, half, reach = self._sizes(units)
-        marks = [self._order_marks(units, shown, centre), self._unit_marks(
-            units, shown, centre, rank, radius, half, reach)]
-        index = jnp.concatenate([m[0].reshape(-1) for m in marks])
-        keys = jnp.concatenate([m[1].reshape(-1) for m in marks])
-        return jnp.full(self.height * self.width, -1, jnp.int32).at[index].max(
-            keys, mode="drop")
+        """int32[H * W]: the highest mark at each pixel, -1 where none.
+
+        On maps with slot sizes (as the observation's renderer), drawn from the leading
+        slots in use only: the slots past the last living unit draw nothing.
+        """
+        bits = rank_bits(units.num_slots)
+
+        def draw(size, operand):
+            units, shown, rank = leading_slots(operand, size)
+            centre = self.to_pixels(units.pos)  # [N, 2]
+            radius, half, reach = self._sizes(units)
+            marks = [self._order_marks(units, shown, centre), self._unit_marks(
+                units, shown, centre, rank, radius, half, reach, bits)]
+            index = jnp.concatenate([m[0].reshape(-1) for m in marks])
+            keys = jnp.concatenate([m[1].reshape(-1) for m in marks])
+            return jnp.full(self.height * self.width, -1, jnp.int32).at[index].max(
+                keys, mode="drop")
+
+        operand = (units, shown, draw_rank(units))
+        sizes = self.sim.game.slot_sizes if self.sim.use_slot_sizes else None
+        if sizes is None:
+            return draw(units.num_slots, operand)
+        return smallest_fit(slots_in_use(units.alive), sizes, draw, operand)
 
     def _sizes(self, units):
         """(radius, half footprint [N, 2], reach): pixels."""
@@ -216,11 +236,10 @@ class HumanView:
         key = jnp.broadcast_to((jnp.arange(n, dtype=jnp.int32) << 2)[:, None], index.shape)
         return index, key
 
-    def _unit_marks(self, units, shown, centre, rank, radius, half, reach):
+    def _unit_marks(self, units, shown, centre, rank, radius, half, reach, bits):
         """Marks of the bodies (layer 1; detail 1 on the rim), selection rings (layer 2)
         and vital bars (layer 3; detail: 0 lost, 1 health, 2 shields, 3 energy), in a
-        window around each unit."""
-        bits = rank_bits(units.num_slots)
+        window around each unit; `bits` are the rank's (of all the slots)."""
         bar_h = self.bar_height
         half_window = self.window // 2
         k = jnp.arange(self.window, dtype=jnp.int32) - half_window

@@ -41,6 +41,9 @@ UNIT_NAMES = {int(UNIT_DATA.sc2_id[t]): t.name.title().replace("_", "")
               for t in UnitType if t != UnitType.NONE}
 """StarCraft II unit id -> name, for the `unit_type` legends (the simulator's types)."""
 
+CHUNK = 64
+"""Steps drawn in one call by `episode_pictures`."""
+
 _BACKGROUND = (16, 16, 20)
 _TEXT = (230, 230, 230)
 
@@ -133,7 +136,8 @@ def compose(view: np.ndarray, panels: Sequence[np.ndarray], layers: Sequence[Fea
     """uint8[H', W', 3]: one frame: the human view, the layer panels in a grid of two
     rows to its right (each `panel_size` pixels square), each captioned with its layer
     and, given the layers' `values`, a legend of the categorical values on it; and below,
-    `text` (lines split at newlines)."""
+    `text` (lines split at newlines, each cut to the frame's width). The frame's size
+    depends only on the view's, the panels' count and size, and the text's line count."""
     font = _font()
     line = 14
     vh, vw = view.shape[:2]
@@ -141,15 +145,14 @@ def compose(view: np.ndarray, panels: Sequence[np.ndarray], layers: Sequence[Fea
     columns = -(-len(panels) // 2)
     cell_w, cell_h = panel_size + 8, panel_size + 2 * line + 4
     height = max(vh, min(len(panels), 2) * cell_h) + line * len(lines) + 6
-    width = max(vw + 4 + columns * cell_w,
-                max(int(font.getlength(t)) for t in lines) + 8)
+    width = vw + 4 + columns * cell_w
     frame = Image.new("RGB", (width, height), _BACKGROUND)
     frame.paste(Image.fromarray(np.asarray(view)), (0, 0))
     draw = ImageDraw.Draw(frame)
     for i, (panel, feature) in enumerate(zip(panels, layers)):
         x, y = vw + 4 + (i // 2) * cell_w, (i % 2) * cell_h
-        draw.text((x, y + 1), _fit(f"{feature.layer_set}/{feature.name}", font, cell_w),
-                  font=font, fill=_TEXT)
+        draw.text((x, y + 1), _fit(f"{feature.layer_set}/{feature.name}", font, cell_w,
+                                   keep_end=True), font=font, fill=_TEXT)
         image = Image.fromarray(np.asarray(panel)).resize((panel_size, panel_size),
                                                           Image.NEAREST)
         frame.paste(image, (x, y + line + 2))
@@ -157,14 +160,16 @@ def compose(view: np.ndarray, panels: Sequence[np.ndarray], layers: Sequence[Fea
             _draw_legend(draw, font, feature, np.unique(values[i]), x,
                          y + line + panel_size + 4, x + cell_w)
     for k, t in enumerate(lines):
-        draw.text((4, height - line * (len(lines) - k) - 3), t, font=font, fill=_TEXT)
+        draw.text((4, height - line * (len(lines) - k) - 3), _fit(t, font, width - 4),
+                  font=font, fill=_TEXT)
     return np.asarray(frame)
 
 
-def _fit(text: str, font, width: int) -> str:
-    """`text`, shortened from the left to fit in `width` pixels."""
+def _fit(text: str, font, width: int, keep_end: bool = False) -> str:
+    """`text`, shortened with an ellipsis to fit in `width` pixels: its end cut, or with
+    `keep_end` its start."""
     while len(text) > 4 and font.getlength(text) > width - 4:
-        text = "…" + text[2:]
+        text = "…" + text[2:] if keep_end else text[:-2] + "…"
     return text
 
 
@@ -229,10 +234,16 @@ def episode_pictures(episode: Episode, width: int = 256,
     fmt = layer_format(episode.screen_size, episode.minimap_size, layers)
     # Replayed to the map's longest episode: one compiled program for every length.
     states, timesteps = replay(episode, fmt, pad_to=max_steps(episode))
-    drawn = pictures(episode.simulator(fmt), width, tuple(layers)).batched(
-        states, timesteps.observation)
+    draw = pictures(episode.simulator(fmt), width, tuple(layers)).batched
     end = episode.num_steps + 1
-    views, panels, values = jax.tree.map(lambda x: np.asarray(x[:end]), drawn)
+    # Drawn CHUNK steps at a time (one compiled size; the last chunk padded), so that
+    # the memory does not grow with the episode.
+    chunks = []
+    for start in range(0, end, CHUNK):
+        index = np.minimum(np.arange(start, start + CHUNK), end - 1)
+        chunk = jax.tree.map(lambda x, i=index: x[i], (states, timesteps.observation))
+        chunks.append(jax.device_get(draw(*chunk)))
+    views, panels, values = jax.tree.map(lambda *xs: np.concatenate(xs)[:end], *chunks)
     rewards = np.asarray(timesteps.reward)[:end]
     return EpisodePictures(views, panels, values, np.cumsum(rewards, dtype=np.float64))
 
