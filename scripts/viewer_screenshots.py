@@ -40,7 +40,7 @@ def _page(output: str) -> None:
                           agent=agent, agent_name="scripted")
     for _ in range(12):
         session.step()
-    server = ViewerServer(session, port=0, paused=True).start()
+    server = ViewerServer(port=0, paused=True).start(session)
     options = Options()
     options.binary_location = shutil.which("chromium")
     for argument in ("--headless=new", "--no-sandbox", "--disable-dev-shm-usage",

@@ -110,7 +110,7 @@ def test_a_preset_sets_the_config_and_a_given_flag_overrides_it():
     "sc2jax.experiments.benchmark_training", "sc2jax.experiments.benchmark_protocol",
     "sc2jax.experiments.replay_info", "sc2jax.experiments.convert_replays",
     "sc2jax.experiments.train_replays", "sc2jax.experiments.record_demonstrations",
-    "sc2jax.experiments.playback_replays",
+    "sc2jax.experiments.playback_replays", "sc2jax.experiments.play",
     "sc2jax.environment.server"])
 def test_every_command_starts(command):
     out = subprocess.run([sys.executable, "-m", command, "--help"], capture_output=True,

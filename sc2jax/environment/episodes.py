@@ -207,10 +207,15 @@ def load_episode(path: str | os.PathLike) -> Episode:
     try:
         with open(path, "rb") as f:
             data = f.read()
-        with np.load(io.BytesIO(data), allow_pickle=False) as z:
-            arrays = {name: z[name] for name in z.files}
     except FileNotFoundError:
         raise EpisodeError(f"no episode file at {path!r}") from None
+    except OSError as error:
+        raise EpisodeError(f"cannot read {path!r}: {error.strerror}") from None
+    if not data.startswith(b"PK"):
+        raise EpisodeError(f"{path!r} is not an episode file (not a NumPy .npz archive)")
+    try:
+        with np.load(io.BytesIO(data), allow_pickle=False) as z:
+            arrays = {name: z[name] for name in z.files}
     except (OSError, ValueError, zipfile.BadZipFile, EOFError) as error:
         raise EpisodeError(f"{path!r} is not a readable episode file ({error})") from None
     fmt = str(arrays.get("format", ""))

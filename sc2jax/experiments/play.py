@@ -115,13 +115,13 @@ def main(argv) -> None:
     training_flags.start_command()
     try:
         check_flags()
+        server = ViewerServer(_HOST.value, _PORT.value, _SPEED.value, _PAUSED.value)
         source = _source()
-        server = ViewerServer(source, _HOST.value, _PORT.value, _SPEED.value, _PAUSED.value)
     except (ValueError, FileNotFoundError, EpisodeError, ReplayError) as error:
         sys.exit(f"error: {error}")
     print("Compiling the first step's pictures ...", flush=True)
     source.frame()
-    server.start()
+    server.start(source)
     print(f"The viewer is at {server.address} (Ctrl+C stops it)", flush=True)
     saved = 0
     deadline = None if _SECONDS.value is None else time.monotonic() + _SECONDS.value

@@ -43,6 +43,9 @@ def test_an_episode_file_holds_what_was_saved(tmp_path):
 def test_bad_files_and_values_get_clear_errors(tmp_path):
     with pytest.raises(EpisodeError, match="no episode file"):
         load_episode(tmp_path / "missing.npz")
+    (tmp_path / "text.npz").write_text("not an archive")
+    with pytest.raises(EpisodeError, match="not a NumPy .npz archive"):
+        load_episode(tmp_path / "text.npz")
     (tmp_path / "corrupt.npz").write_bytes(b"PK\x03\x04 not a zip")
     with pytest.raises(EpisodeError, match="not a readable episode file"):
         load_episode(tmp_path / "corrupt.npz")

@@ -1,7 +1,8 @@
 """The viewer's web server: the page, its pictures, and a person's inputs, over HTTP.
 
-`ViewerServer(source, host, port)` serves a `PlaySession`, a `Playback` of a recorded
-episode or a `ReplayPlayback` of a human replay from a thread
+`ViewerServer(host, port)` takes its port at once (so a port in use is refused before
+anything is compiled); `start(source)` then serves a `PlaySession`, a `Playback` of a
+recorded episode or a `ReplayPlayback` of a human replay from a thread
 (Python's `http.server`), and steps it from another at the chosen speed unless paused.
 It serves its own three assets (the page, its script and its style) and nothing else
 from disk. The page asks for:
@@ -64,7 +65,6 @@ class ViewerServer:
     """Serves a session (or playback) on http://host:port and steps it.
 
     Args:
-      source: a `PlaySession`, a `Playback` or a `ReplayPlayback`.
       host: the address to bind (127.0.0.1: this machine only).
       port: the port (0: any free one).
       speed: agent steps per second while playing.
@@ -74,12 +74,12 @@ class ViewerServer:
       ValueError: for a bad speed, or a port that is in use or not allowed.
     """
 
-    def __init__(self, source: PlaySession | Playback | ReplayPlayback, host: str = "127.0.0.1",
-                 port: int = 0, speed: float = 4.0, paused: bool = False):
+    def __init__(self, host: str = "127.0.0.1", port: int = 0, speed: float = 4.0,
+                 paused: bool = False):
         if not 0 < speed <= MAX_SPEED:
             raise ValueError(f"speed must be in (0, {MAX_SPEED}] steps per second, got "
                              f"{speed!r}")
-        self.source = source
+        self.source: PlaySession | Playback | ReplayPlayback | None = None
         self.speed, self.paused = float(speed), bool(paused)
         self._steps_asked = 0
         self._error = ""
@@ -101,7 +101,9 @@ class ViewerServer:
         host, port = self._http.server_address[:2]
         return f"http://{host}:{port}/"
 
-    def start(self) -> ViewerServer:
+    def start(self, source: PlaySession | Playback | ReplayPlayback) -> ViewerServer:
+        """Serves and steps `source` (a `PlaySession`, `Playback` or `ReplayPlayback`)."""
+        self.source = source
         for thread in self._threads:
             thread.start()
         return self

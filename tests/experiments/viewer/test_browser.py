@@ -74,7 +74,7 @@ def test_a_person_selects_the_marine_and_moves_it_to_the_beacon(browser, tmp_pat
     sim = small_sim("MoveToBeacon")
     session = PlaySession(sim, seed=5, layers=sim.fmt.screen_layers + sim.fmt.minimap_layers,
                           width=384)
-    server = ViewerServer(session, port=0, speed=8.0).start()
+    server = ViewerServer(port=0, speed=8.0).start(session)
     try:
         browser.get(server.address)
         view = browser.find_element(By.ID, "view")

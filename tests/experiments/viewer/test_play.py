@@ -3,6 +3,7 @@ requests."""
 
 import json
 import pathlib
+import socket
 import subprocess
 import sys
 import time
@@ -130,7 +131,7 @@ def test_a_person_plays_an_episode_that_replays_exactly(tmp_path):
     playback.seek(99)
     assert playback.frame().status["step"] == 30
 
-    server = ViewerServer(session, port=0, speed=16.0, paused=True).start()
+    server = ViewerServer(port=0, speed=16.0, paused=True).start(session)
     try:
         address = server.address
         code, body = _request(address, "api/status")
@@ -155,7 +156,7 @@ def test_a_person_plays_an_episode_that_replays_exactly(tmp_path):
             assert time.monotonic() < deadline, "the server did not step"
             time.sleep(0.05)
         with pytest.raises(ValueError, match="in use"):
-            ViewerServer(session, port=int(address.rsplit(":", 1)[1].strip("/")))
+            ViewerServer(port=int(address.rsplit(":", 1)[1].strip("/")))
     finally:
         server.close()
 
@@ -173,6 +174,13 @@ def test_play_refuses_bad_flags_before_compiling():
                           "--episode=/no/such/file.npz"], capture_output=True, text=True,
                          timeout=120)
     assert out.returncode != 0 and "no episode file" in out.stderr
+    with socket.socket() as taken:  # A port in use, refused before anything compiles.
+        taken.bind(("127.0.0.1", 0))
+        taken.listen()
+        port = taken.getsockname()[1]
+        out = subprocess.run([sys.executable, "-m", "sc2jax.experiments.play",
+                              f"--port={port}"], capture_output=True, text=True, timeout=120)
+    assert out.returncode != 0 and f"port {port} on 127.0.0.1 is in use" in out.stderr
 
 
 @pytest.mark.slow
