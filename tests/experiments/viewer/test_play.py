@@ -205,3 +205,27 @@ def test_a_human_replay_is_shown_as_its_player_saw_it():
     assert (frame.view == 255).all(axis=-1).any()  # The camera's rectangle.
     # The player's own units are drawn in the player's colour.
     assert (frame.view == [0, 142, 0]).all(axis=-1).any()
+
+
+@pytest.mark.slow
+def test_a_trained_run_is_watched_in_its_own_format(tmp_path):
+    from sc2jax.experiments.training import evaluation, trainer
+    from tests.experiments.training.test_training import TINY
+
+    run = str(tmp_path / "run")
+    trainer.train(TINY, run, log=lambda _: None, progress=False)
+    trained = trainer.trained_agent(run, map_name="DefeatRoaches")  # Ignored: A3C runs
+    assert trained.sim.map_name == "MoveToBeacon" and trained.name == "atari"  # its own.
+    assert trained.sim.fmt.screen_size == (16, 16)
+    layers = trained.sim.fmt.screen_layers + trained.sim.fmt.minimap_layers
+    session = PlaySession(trained.sim, layers=layers, width=128,
+                          agent=evaluation.host_core(trained.core, trained.params),
+                          agent_carry=trained.core.initial_carry(1), agent_name=trained.name)
+    for _ in range(3):
+        session.step()
+    frame = session.frame()
+    assert frame.status["mode"] == "watch" and frame.status["step"] == 3
+    assert [f.name for f in frame.panels] == ["player_relative", "selected",
+                                              "player_relative"]
+    with pytest.raises(FileNotFoundError):
+        trainer.trained_agent(str(tmp_path / "missing"))
