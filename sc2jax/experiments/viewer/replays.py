@@ -7,13 +7,12 @@ fog of war unless `full_information`. The page's main picture is the whole map a
 view's width, minimap-level (units from the unit table at their estimated points,
 coloured by their owner relative to the player; cells the player cannot see dimmed; the
 camera's rectangle in white); beside it the 38 feature layers and the player's PySC2
-call at that step. It is a `Playback` for `ViewerServer`: `seek`, `step`, `frame`.
+call at that step. It is a `Timeline` for `ViewerServer`: `seek`, `step`, `frame`.
 """
 
 from __future__ import annotations
 
 import os
-import threading
 
 import numpy as np
 
@@ -25,7 +24,7 @@ from sc2jax.environment.interface.features import (
 )
 from sc2jax.environment.interface.palettes import colorize
 from sc2jax.experiments.viewer.frames import action_text
-from sc2jax.experiments.viewer.session import Frame, available_functions
+from sc2jax.experiments.viewer.session import Frame, Timeline, available_functions
 from sc2jax.replay_sl import label_players, open_replay, read_metadata, unit_table
 from sc2jax.replay_sl.availability import load_cards
 from sc2jax.replay_sl.observations import View, observe_step
@@ -33,7 +32,7 @@ from sc2jax.replay_sl.observations import View, observe_step
 _HIDDEN_GROUND, _SEEN_GROUND = np.float32([22, 22, 28]), np.float32([58, 54, 46])
 
 
-class ReplayPlayback:
+class ReplayPlayback(Timeline):
     """One player's view of a decoded replay, step by step.
 
     Args:
@@ -49,6 +48,7 @@ class ReplayPlayback:
 
     def __init__(self, path: str | os.PathLike, player_id: int = 1, width: int = 384,
                  full_information: bool = False):
+        super().__init__()
         replay = open_replay(path)
         self.metadata = read_metadata(replay)
         ids = [p.player_id for p in self.metadata.players]
@@ -63,8 +63,6 @@ class ReplayPlayback:
         self._map_view = View(map_size, 16, min(256, max(64, width // 2)), full_information)
         self._width = width
         self._cards = load_cards()
-        self._lock = threading.RLock()
-        self.position, self._frame = 0, None
         opponents = [p for p in self.metadata.players if p.player_id != player_id]
         self._summary = (f"{self.player.name} ({self.player.race}, {self.player.result}) "
                          f"against " + ", ".join(f"{p.name} ({p.race})" for p in opponents))
@@ -73,22 +71,6 @@ class ReplayPlayback:
     def length(self) -> int:
         """The player's agent steps."""
         return len(self.labels.steps)
-
-    def seek(self, position: int) -> None:
-        """Moves to agent step `position`, clipped to the replay."""
-        with self._lock:
-            position = int(np.clip(position, 0, self.length - 1))
-            if position != self.position:
-                self.position, self._frame = position, None
-
-    def step(self) -> None:
-        self.seek(self.position + 1)
-
-    def frame(self) -> Frame:
-        with self._lock:
-            if self._frame is None:
-                self._frame = self._draw(self.position)
-            return self._frame
 
     def _draw(self, t: int) -> Frame:
         pid = self.player.player_id

@@ -34,8 +34,7 @@ from PIL import Image
 
 from sc2jax.environment.interface.palettes import legend
 from sc2jax.experiments.viewer.frames import UNIT_NAMES
-from sc2jax.experiments.viewer.replays import ReplayPlayback
-from sc2jax.experiments.viewer.session import Playback, PlaySession
+from sc2jax.experiments.viewer.session import PlaySession, Timeline
 
 ASSETS = {"/": ("index.html", "text/html; charset=utf-8"),
           "/app.js": ("app.js", "text/javascript; charset=utf-8"),
@@ -79,7 +78,7 @@ class ViewerServer:
         if not 0 < speed <= MAX_SPEED:
             raise ValueError(f"speed must be in (0, {MAX_SPEED}] steps per second, got "
                              f"{speed!r}")
-        self.source: PlaySession | Playback | ReplayPlayback | None = None
+        self.source: PlaySession | Timeline | None = None
         self.speed, self.paused = float(speed), bool(paused)
         self._steps_asked = 0
         self._error = ""
@@ -101,8 +100,9 @@ class ViewerServer:
         host, port = self._http.server_address[:2]
         return f"http://{host}:{port}/"
 
-    def start(self, source: PlaySession | Playback | ReplayPlayback) -> ViewerServer:
-        """Serves and steps `source` (a `PlaySession`, `Playback` or `ReplayPlayback`)."""
+    def start(self, source: PlaySession | Timeline) -> ViewerServer:
+        """Serves and steps `source`: a `PlaySession`, or a `Timeline` (`Playback`,
+        `ReplayPlayback`)."""
         self.source = source
         for thread in self._threads:
             thread.start()
@@ -157,7 +157,7 @@ class ViewerServer:
                 raise ValueError("reset applies to a game, not to a playback (seek to 0)")
             self.source.reset()
         if "seek" in request:
-            if not hasattr(self.source, "seek") or not isinstance(request["seek"], int):
+            if not isinstance(self.source, Timeline) or not isinstance(request["seek"], int):
                 raise ValueError(f"seek takes an int step of a playback, got "
                                  f"{request['seek']!r}")
             self.source.seek(request["seek"])

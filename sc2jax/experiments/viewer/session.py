@@ -236,30 +236,24 @@ class PlaySession:
                 "minimap_size": list(self.sim.fmt.minimap_size)}
 
 
-class Playback:
-    """The steps of a recorded episode, to scrub through."""
+class Timeline:
+    """A recording to scrub through: `seek`, `step` and `frame` over its `length` steps,
+    each step's frame drawn once, by the subclass's `_draw(t)`."""
 
-    def __init__(self, episode: Episode, layers: Sequence[Feature] = (), width: int = 384):
-        self.episode = episode
-        fmt = layer_format(episode.screen_size, episode.minimap_size, layers)
-        self.sim = episode.simulator(fmt)
-        self._drawing = _Drawing(self.sim, width, layers)
-        states, timesteps = jax.device_get(replay(episode, fmt, pad_to=max_steps(episode)))
-        end = episode.num_steps + 1
-        self._states = jax.tree.map(lambda x: x[:end], states)
-        self._observations = jax.tree.map(lambda x: x[:end], timesteps.observation)
-        self._scores = np.cumsum(np.asarray(timesteps.reward)[:end], dtype=np.float64)
+    def __init__(self):
         self._lock = threading.RLock()
         self.position = 0
         self._frame = None
 
     @property
     def length(self) -> int:
-        """The observations: steps + 1."""
-        return self.episode.num_steps + 1
+        raise NotImplementedError
+
+    def _draw(self, t: int) -> Frame:
+        raise NotImplementedError
 
     def seek(self, position: int) -> None:
-        """Moves to observation `position`, clipped to [0, length - 1]."""
+        """Moves to step `position`, clipped to [0, length - 1]."""
         with self._lock:
             position = int(np.clip(position, 0, self.length - 1))
             if position != self.position:
@@ -272,18 +266,39 @@ class Playback:
     def frame(self) -> Frame:
         with self._lock:
             if self._frame is None:
-                t = self.position
-                state = jax.tree.map(lambda x: x[t], self._states)
-                obs = jax.tree.map(lambda x: x[t], self._observations)
-                e = self.episode
-                action = (action_text(DenseAction(*(a[t] for a in e.actions)))
-                          if t < e.num_steps else "")
-                self._frame = self._drawing(state, obs, {
-                    "version": t, "map": e.map_name, "mode": "playback", "agent": e.agent,
-                    "step": t,
-                    "length": self.length, "game_loop": int(state.game_loop),
-                    "score": float(self._scores[t]), "last_call": action,
-                    "available": available_functions(np.asarray(
-                        obs["available_actions_mask"])),
-                    "screen_size": list(e.screen_size), "minimap_size": list(e.minimap_size)})
+                self._frame = self._draw(self.position)
             return self._frame
+
+
+class Playback(Timeline):
+    """The steps of a recorded episode, to scrub through."""
+
+    def __init__(self, episode: Episode, layers: Sequence[Feature] = (), width: int = 384):
+        super().__init__()
+        self.episode = episode
+        fmt = layer_format(episode.screen_size, episode.minimap_size, layers)
+        self.sim = episode.simulator(fmt)
+        self._drawing = _Drawing(self.sim, width, layers)
+        states, timesteps = jax.device_get(replay(episode, fmt, pad_to=max_steps(episode)))
+        end = episode.num_steps + 1
+        self._states = jax.tree.map(lambda x: x[:end], states)
+        self._observations = jax.tree.map(lambda x: x[:end], timesteps.observation)
+        self._scores = np.cumsum(np.asarray(timesteps.reward)[:end], dtype=np.float64)
+
+    @property
+    def length(self) -> int:
+        """The observations: steps + 1."""
+        return self.episode.num_steps + 1
+
+    def _draw(self, t: int) -> Frame:
+        state = jax.tree.map(lambda x: x[t], self._states)
+        obs = jax.tree.map(lambda x: x[t], self._observations)
+        e = self.episode
+        action = (action_text(DenseAction(*(a[t] for a in e.actions)))
+                  if t < e.num_steps else "")
+        return self._drawing(state, obs, {
+            "version": t, "map": e.map_name, "mode": "playback", "agent": e.agent,
+            "step": t, "length": self.length, "game_loop": int(state.game_loop),
+            "score": float(self._scores[t]), "last_call": action,
+            "available": available_functions(np.asarray(obs["available_actions_mask"])),
+            "screen_size": list(e.screen_size), "minimap_size": list(e.minimap_size)})
