@@ -24,6 +24,7 @@ SSH port forwarding, `ssh -L 8000:127.0.0.1:8000 host`), and prints its address.
 
 from __future__ import annotations
 
+import glob
 import os
 import sys
 import time
@@ -55,7 +56,8 @@ _PORT = flags.DEFINE_integer("port", 8000, "Port to serve on (0: any free one)."
 _SPEED = flags.DEFINE_float("speed", 4.0, "Agent steps per second.")
 _PAUSED = flags.DEFINE_bool("paused", False, "Start paused.")
 _WIDTH = flags.DEFINE_integer("width", 384, "The human view's width in pixels.")
-_SAVE = flags.DEFINE_string("save", None, "Save each finished episode to this directory.")
+_SAVE = flags.DEFINE_string("save", None, "Save each finished episode to this directory "
+                            "(numbered after the episodes already there).")
 _TEMPERATURE = flags.DEFINE_float("temperature", 1.0, "Softmax temperature of a trained "
                                   "network's actions.")
 _SECONDS = flags.DEFINE_float("seconds", None, "Stop after this many seconds (default: "
@@ -116,21 +118,30 @@ def main(argv) -> None:
     try:
         check_flags()
         server = ViewerServer(_HOST.value, _PORT.value, _SPEED.value, _PAUSED.value)
+    except ValueError as error:
+        sys.exit(f"error: {error}")
+    try:
         source = _source()
     except (ValueError, FileNotFoundError, EpisodeError, ReplayError) as error:
+        server.close()
         sys.exit(f"error: {error}")
     print("Compiling the first step's pictures ...", flush=True)
     source.frame()
     server.start(source)
     print(f"The viewer is at {server.address} (Ctrl+C stops it)", flush=True)
     saved = 0
+    # Numbered after the episodes already in --save, which are never overwritten.
+    first = len(glob.glob(os.path.join(_SAVE.value, "episode_*.npz"))) if _SAVE.value else 0
     deadline = None if _SECONDS.value is None else time.monotonic() + _SECONDS.value
     try:
         while deadline is None or time.monotonic() < deadline:
             time.sleep(0.5)
             if _SAVE.value and isinstance(source, PlaySession):
                 for episode in source.episodes[saved:]:
-                    path = os.path.join(_SAVE.value, f"episode_{saved:03d}.npz")
+                    path = os.path.join(_SAVE.value, f"episode_{first + saved:03d}.npz")
+                    while os.path.exists(path):  # A gap in the numbers.
+                        first += 1
+                        path = os.path.join(_SAVE.value, f"episode_{first + saved:03d}.npz")
                     save_episode(path, episode)
                     saved += 1
                     print(f"Saved {path} (score {episode.score:g})", flush=True)

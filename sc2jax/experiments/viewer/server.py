@@ -109,11 +109,13 @@ class ViewerServer:
         return self
 
     def close(self) -> None:
+        """Stops serving and stepping, and frees the port."""
         self._stop.set()
-        self._http.shutdown()
+        if self.source is not None:  # Started: serve_forever runs until shut down.
+            self._http.shutdown()
+            for thread in self._threads:
+                thread.join(timeout=10)
         self._http.server_close()
-        for thread in self._threads:
-            thread.join(timeout=10)
 
     # Stepping.
 

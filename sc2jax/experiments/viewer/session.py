@@ -7,9 +7,10 @@ exactly as `SC2Env.step` checks an agent's (`validate_function_call`, then the
 an `agent` (watch mode) the agent chooses every action instead. Each finished episode is
 kept as an `Episode` (the reset key and the actions), which replays exactly.
 
-`Playback` serves the steps of a recorded episode in the same form, to scrub through.
+`Playback` serves the steps of a recorded episode in the same form, to scrub through
+(a `Timeline`, as `replays.ReplayPlayback` of a human replay).
 
-Both hand out `Frame`s: the pictures and numbers the page shows for one step. All
+They hand out `Frame`s: the pictures and numbers the page shows for one step. All
 methods are thread-safe (the page's requests and the stepping loop share a session).
 """
 
@@ -120,8 +121,12 @@ class PlaySession:
     # Episodes.
 
     def reset(self) -> None:
-        """Starts a new episode (the current one is dropped unless it had ended)."""
+        """Starts a new episode; the current one is kept in `episodes` if it had ended,
+        else dropped."""
         with self._lock:
+            timestep = getattr(self, "_timestep", None)
+            if timestep is not None and int(timestep.step_type) == dm_env.StepType.LAST:
+                self._finish()
             self._key, episode_key, self._act_key = jax.random.split(self._key, 3)
             self._episode_key = np.asarray(episode_key, np.uint32)
             self._state, self._timestep = jax.device_get(
@@ -189,7 +194,6 @@ class PlaySession:
         the episode's last step, starts the next episode instead."""
         with self._lock:
             if int(self._timestep.step_type) == dm_env.StepType.LAST:
-                self._finish()
                 self.reset()
                 return
             if self.agent is not None:

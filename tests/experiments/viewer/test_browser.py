@@ -97,8 +97,8 @@ def test_a_person_selects_the_marine_and_moves_it_to_the_beacon(browser, tmp_pat
               what="the click to select the marine")
         assert "Smart_screen" in [f["name"] for f in _status(server.address)["available"]]
         click(beacon, right=True)
-        assert browser.find_element(By.ID, "message").text.startswith(
-            "queued FunctionCall(function=451")  # Smart_screen.
+        _wait(lambda: browser.find_element(By.ID, "message").text.startswith(
+            "queued FunctionCall(function=451"), what="Smart_screen to be queued")
         _wait(lambda: _status(server.address)["score"] >= 1, seconds=60,
               what="the marine to reach the beacon")
         # The page shows what the server says.

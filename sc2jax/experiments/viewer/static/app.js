@@ -121,11 +121,19 @@ async function poll() {
   setTimeout(poll, 120);
 }
 
-// Mouse on the view and the minimap, in the pictures' own pixels.
+// Mouse on the view and the minimap, in the pictures' own pixels. Their sizes are kept
+// from their last load: while the next step's picture loads, naturalWidth can read 0.
+const natural = {};
+for (const id of ["view", "minimap"]) {
+  $(id).addEventListener("load", () => {
+    natural[id] = [$(id).naturalWidth, $(id).naturalHeight];
+  });
+}
 function at(img, e) {
   const box = img.getBoundingClientRect();
-  return [(e.clientX - box.left) * img.naturalWidth / box.width,
-          (e.clientY - box.top) * img.naturalHeight / box.height];
+  const [width, height] = natural[img.id] || [img.naturalWidth, img.naturalHeight];
+  return [(e.clientX - box.left) * width / box.width,
+          (e.clientY - box.top) * height / box.height];
 }
 
 let dragStart = null;
