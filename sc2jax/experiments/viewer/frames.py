@@ -4,7 +4,7 @@
 human view (`engine.human_view`) and each chosen layer in PySC2's colours
 (`interface.palettes`). `compose` lays one step's pictures out as one frame with PIL: the
 human view on the left, the layer panels in a grid on the right, each with its name and
-(for categorical layers) a legend of the values on screen, and a line of text below:
+a legend (the categorical values on screen, or the heat map's range), and text below:
 the map, the step and game loop, the score so far and the action taken. `grid` tiles
 the human views of a batch of environments.
 
@@ -31,7 +31,7 @@ from sc2jax.environment.interface import specs
 from sc2jax.environment.interface.dense import DenseAction, from_dense
 from sc2jax.environment.interface.features import MINIMAP_FEATURES, SCREEN_FEATURES, Feature
 from sc2jax.environment.interface.functions import FUNCTIONS
-from sc2jax.environment.interface.palettes import colorize, legend
+from sc2jax.environment.interface.palettes import colorize, legend, palette
 
 DEFAULT_LAYERS = ("screen/player_relative", "screen/unit_type", "screen/selected",
                   "minimap/player_relative")
@@ -135,9 +135,10 @@ def compose(view: np.ndarray, panels: Sequence[np.ndarray], layers: Sequence[Fea
             ) -> np.ndarray:
     """uint8[H', W', 3]: one frame: the human view, the layer panels in a grid of two
     rows to its right (each `panel_size` pixels square), each captioned with its layer
-    and, given the layers' `values`, a legend of the categorical values on it; and below,
-    `text` (lines split at newlines, each cut to the frame's width). The frame's size
-    depends only on the view's, the panels' count and size, and the text's line count."""
+    and, given the layers' `values`, a legend (its categorical values, or the heat map's
+    range); and below, `text` (lines split at newlines, each cut to the frame's width).
+    The frame's size depends only on the view's, the panels' count and size, and the
+    text's line count."""
     font = _font()
     line = 14
     vh, vw = view.shape[:2]
@@ -156,9 +157,9 @@ def compose(view: np.ndarray, panels: Sequence[np.ndarray], layers: Sequence[Fea
         image = Image.fromarray(np.asarray(panel)).resize((panel_size, panel_size),
                                                           Image.NEAREST)
         frame.paste(image, (x, y + line + 2))
-        if feature.is_categorical and i < len(values):
-            _draw_legend(draw, font, feature, np.unique(values[i]), x,
-                         y + line + panel_size + 4, x + cell_w)
+        if i < len(values):
+            _draw_legend(draw, font, feature, values[i], x, y + line + panel_size + 4,
+                         x + cell_w)
     for k, t in enumerate(lines):
         draw.text((4, height - line * (len(lines) - k) - 3), _fit(t, font, width - 4),
                   font=font, fill=_TEXT)
@@ -174,8 +175,17 @@ def _fit(text: str, font, width: int, keep_end: bool = False) -> str:
 
 
 def _draw_legend(draw, font, feature, values, x, y, right):
-    """Coloured squares and labels of a categorical layer's non-zero values, on one line
-    from x to `right` (as many as fit)."""
+    """A layer's legend on one line from x to `right`: a categorical layer's non-zero
+    values (as many as fit) as coloured squares and labels; a scalar layer's heat map
+    from 0 to its scale."""
+    if not feature.is_categorical:
+        bar = palette(feature)
+        for k in range(40):
+            draw.line([x + k, y + 2, x + k, y + 9],
+                      fill=tuple(int(c) for c in bar[k * (len(bar) - 1) // 39]))
+        draw.text((x + 44, y), f"0 to {feature.scale}", font=font, fill=_TEXT)
+        return
+    values = np.unique(values)
     names = UNIT_NAMES if feature.name == "unit_type" else None
     for _, rgb, label in legend(feature, [v for v in values if v != 0], names):
         end = x + 14 + int(draw.textlength(label, font=font))

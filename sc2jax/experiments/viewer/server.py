@@ -173,6 +173,8 @@ class ViewerServer:
                 names = UNIT_NAMES if feature.name == "unit_type" else None
                 entry["legend"] = [[v, list(rgb), label] for v, rgb, label in
                                    legend(feature, np.unique(values)[:16], names)]
+            else:  # The heat map's range, and the largest value on the layer now.
+                entry["scale"] = [0, feature.scale, int(values.max())]
             layers.append(entry)
         with self._lock:
             return {**frame.status, "paused": self.paused, "speed": self.speed,

@@ -78,8 +78,10 @@ function renderLayers() {
   $("layers").replaceChildren(...status.layers.filter((l) => shown.has(l.name)).map((l) => {
     const box = document.createElement("div");
     box.className = "layer";
-    const legend = (l.legend || []).filter(([v]) => v !== 0).map(([, rgb, label]) =>
-      `<i style="background: rgb(${rgb.join(",")})"></i>${label}`).join("");
+    const legend = l.scale ?
+      `<i class="heat"></i>0 to ${l.scale[1]} (now up to ${l.scale[2]})` :
+      (l.legend || []).filter(([v]) => v !== 0).map(([, rgb, label]) =>
+        `<i style="background: rgb(${rgb.join(",")})"></i>${label}`).join("");
     box.innerHTML = `<h2>${l.name}</h2><img alt="${l.name}" src="/api/image/layer/` +
       `${l.name}.png?v=${status.version}"><div class="legend">${legend}</div>`;
     return box;
