@@ -72,6 +72,7 @@ def test_damage_selection_and_orders_are_drawn():
         assert tuple(image[82, column]) == line
 
 
+@pytest.mark.slow
 def test_shapes_of_beacons_shards_and_structures():
     sim, state = _state("MoveToBeacon", [
         dict(type=UnitType.BEACON, owner=Owner.NEUTRAL, pos=(30.0, 30.0))])
@@ -133,6 +134,7 @@ def test_bad_settings_are_refused(width, region):
         HumanView(small_sim("MoveToBeacon"), width, region)
 
 
+@pytest.mark.slow
 def test_slot_sizes_draw_what_all_slots_draw():
     # BuildMarines draws from the leading 32, 96 or 200 slots, as its observations.
     from sc2jax.environment.engine.simulator import Simulator
