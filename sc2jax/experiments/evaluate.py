@@ -128,61 +128,40 @@ def main(argv) -> None:
         sys.exit(f"error: {error}")
     start = time.time()
     on_game = _BACKEND.value == "sc2"
-    if _RUN_DIR.value and pretrained.is_replay_run(_RUN_DIR.value):
-        if on_game:
+    if _RUN_DIR.value and on_game:
+        if pretrained.is_replay_run(_RUN_DIR.value):
             sys.exit("error: a replay run is evaluated on the simulator's mini-games only "
                      "(--backend=simulator)")
-        try:
-            replay_run = pretrained.load_replay_run(_RUN_DIR.value, _STEP.value)
-        except (FileNotFoundError, ValueError) as error:
-            sys.exit(f"error: {error}")
-        agent_name, map_name = f"{replay_run.agent} (replays)", _MAP.value
-        fmt = replay_run.fmt
-        resolved = dict(agent=replay_run.agent, screen_size=fmt.screen_size[0],
-                        minimap_size=fmt.minimap_size[0], step_mul=replay_run.step_mul,
-                        replay_updates=replay_run.update)
-        core = actor_core(replay_run.network, _TEMPERATURE.value)
-        print(f"Restored {replay_run.agent} after {replay_run.update} updates on replays "
-              f"from {_RUN_DIR.value}")
-        sim = replay_run.simulator(map_name)
-        acting = (core, replay_run.params)
-
-        def run(on_batch):
-            return evaluation.run_core_episodes(sim, core, replay_run.params,
-                                                _EPISODES.value, _NUM_ENVS.value,
-                                                _SEED.value, on_batch)
-    elif _RUN_DIR.value:
         try:
             trained, params, meta = trainer.load_run(_RUN_DIR.value, _STEP.value, _BEST.value)
         except (FileNotFoundError, ValueError) as error:
             sys.exit(f"error: {error}")
         config, agent_name = trained.config, trained.config.agent
         # What was evaluated: the run's own map and format, not the flags' defaults.
-        resolved = dict(map=config.map_name, agent=agent_name,
-                        screen_size=config.screen_size, minimap_size=config.minimap_size,
-                        step_mul=config.step_mul, functions=config.functions,
-                        env_steps=meta["env_steps"])
+        resolved, restored = trainer.describe_run(config, meta, _RUN_DIR.value)
         core = actor_core(trained.network, _TEMPERATURE.value, config.functions)
-        print(f"Restored {agent_name} after {meta['env_steps']} agent steps from "
-              f"{_RUN_DIR.value}")
-        if on_game:
-            games = trainer.launch_games(
-                dataclasses.replace(config, backend="sc2", num_envs=_NUM_ENVS.value,
-                                    seed=_SEED.value), _SC2PATH.value)
-            act = evaluation.host_core(core, params)
-            carry = core.initial_carry(_NUM_ENVS.value)
-        else:
-            try:
-                sim = trainer.build(dataclasses.replace(config, backend="simulator",
-                                                        bot=None)).sim
-            except ValueError as error:
-                sys.exit(f"error: {error}")
-            acting = (core, params)
-
-            def run(on_batch):
-                return evaluation.run_core_episodes(sim, core, params, _EPISODES.value,
-                                                    _NUM_ENVS.value, _SEED.value, on_batch)
+        print(restored)
+        games = trainer.launch_games(
+            dataclasses.replace(config, backend="sc2", num_envs=_NUM_ENVS.value,
+                                seed=_SEED.value), _SC2PATH.value)
+        act = evaluation.host_core(core, params)
+        carry = core.initial_carry(_NUM_ENVS.value)
         map_name = config.map_name
+    elif _RUN_DIR.value:
+        # An A3C run plays its own map and format, a replay run --map at its dataset's.
+        try:
+            trained = trainer.trained_agent(_RUN_DIR.value, _MAP.value, _TEMPERATURE.value,
+                                            _STEP.value, _BEST.value)
+        except (FileNotFoundError, ValueError) as error:
+            sys.exit(f"error: {error}")
+        print(trained.restored)
+        sim, agent_name, map_name = trained.sim, trained.name, trained.sim.map_name
+        resolved = trained.settings
+        acting = (trained.core, trained.params)
+
+        def run(on_batch):
+            return evaluation.run_core_episodes(sim, *acting, _EPISODES.value,
+                                                _NUM_ENVS.value, _SEED.value, on_batch)
     else:
         extra = required_format(_MAP.value) if _AGENT.value == "scripted" else {}
         sizes = dict(screen_size=_SCREEN.value, minimap_size=_MINIMAP.value,

@@ -564,12 +564,18 @@ class TrainedAgent:
       core: its `ActorCore`.
       params: its parameters.
       name: what it is, e.g. "fullyconv" or "fullyconv (replays)".
+      settings: what it plays with and how long it trained (for a results file): an A3C
+        run's map, network, sizes, step_mul, functions and agent steps; a replay run's
+        network, sizes, step_mul and updates.
+      restored: a line saying what was restored from where.
     """
 
     sim: Simulator
     core: ActorCore
     params: Any
     name: str
+    settings: dict
+    restored: str
 
 
 def trained_agent(run_dir: str, map_name: str | None = None, temperature: float = 1.0,
@@ -587,13 +593,28 @@ def trained_agent(run_dir: str, map_name: str | None = None, temperature: float 
             raise ValueError(f"{run_dir} is a replay run: it needs a map to play, and has "
                              f"no best parameters")
         run = pretrained.load_replay_run(run_dir, step)
+        settings = dict(agent=run.agent, screen_size=run.fmt.screen_size[0],
+                        minimap_size=run.fmt.minimap_size[0], step_mul=run.step_mul,
+                        replay_updates=run.update)
         return TrainedAgent(run.simulator(map_name), actor_core(run.network, temperature),
-                            run.params, f"{run.agent} (replays)")
-    agent, params, _ = load_run(run_dir, step, best)
+                            run.params, f"{run.agent} (replays)", settings,
+                            f"Restored {run.agent} after {run.update} updates on replays "
+                            f"from {run_dir}")
+    agent, params, meta = load_run(run_dir, step, best)
     config = agent.config
     sim = build(dataclasses.replace(config, backend="simulator", bot=None)).sim
     return TrainedAgent(sim, actor_core(agent.network, temperature, config.functions),
-                        params, config.agent)
+                        params, config.agent, *describe_run(config, meta, run_dir))
+
+
+def describe_run(config: TrainConfig, meta: dict, run_dir: str) -> tuple[dict, str]:
+    """(settings, restored) of an A3C run's restored parameters, as `TrainedAgent` has
+    them: its own map and format, not a command's flags."""
+    settings = dict(map=config.map_name, agent=config.agent, screen_size=config.screen_size,
+                    minimap_size=config.minimap_size, step_mul=config.step_mul,
+                    functions=config.functions, env_steps=meta["env_steps"])
+    return settings, (f"Restored {config.agent} after {meta['env_steps']} agent steps from "
+                      f"{run_dir}")
 
 
 def restore_params(agent: Agent, run_dir: str, step: int | None = None,
