@@ -149,7 +149,7 @@ def policy_core(policy: Policy) -> ActorCore:
 
 
 def record_episodes(sim: Simulator, core, params, episodes: int, seed: int = 0,
-                    agent: str = "", game_steps_per_episode: int = 0) -> list[Episode]:
+                    agent: str = "") -> list[Episode]:
     """Plays `episodes` episodes (one batch) and returns them as `Episode`s to save and
     replay (`sc2jax.environment.episodes`): the same episodes as the first batch of
     `run_core_episodes` with the same seed and `num_envs=episodes`.
@@ -161,8 +161,6 @@ def record_episodes(sim: Simulator, core, params, episodes: int, seed: int = 0,
       episodes: how many (>= 1), played side by side.
       seed: RNG seed.
       agent: who played, stored in each episode.
-      game_steps_per_episode: stored in each episode; the episodes here run to the
-        map's own end.
     """
     check_positive_int("episodes", episodes)
     run = jax.jit(core_episodes_fn(sim, core, episodes, record=True))
@@ -180,8 +178,7 @@ def record_episodes(sim: Simulator, core, params, episodes: int, seed: int = 0,
             key=np.asarray(keys[i], np.uint32),
             actions=DenseAction(*(np.asarray(a[:n, i]) for a in actions)),
             rewards=np.asarray(rewards[:n, i], np.float32), score_index=sim.score_index,
-            score_multiplier=sim.score_multiplier,
-            game_steps_per_episode=game_steps_per_episode, agent=agent))
+            score_multiplier=sim.score_multiplier, agent=agent))
     return out
 
 
@@ -256,9 +253,7 @@ HostAct = Callable[[jax.Array, Any, dict, np.ndarray], tuple[Any, DenseAction]]
 
 def host_policy(policy: Policy) -> HostAct:
     """A `Policy` as a `HostAct` for `run_host_episodes` (batched, jitted, no carry)."""
-    batched = jax.jit(lambda key, obs: jax.vmap(policy)(
-        jax.random.split(key, jnp.shape(obs["available_actions_mask"])[0]), obs))
-    return lambda key, carry, obs, first: (carry, batched(key, obs))
+    return host_core(policy_core(policy), None)
 
 
 def host_core(core, params) -> HostAct:
