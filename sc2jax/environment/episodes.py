@@ -163,6 +163,14 @@ def max_steps(episode: Episode) -> int:
     return -(-episode.simulator().game.time_limit_loops // episode.step_mul)
 
 
+def replay_whole(episode: Episode, fmt: specs.ObservationFormat | None = None):
+    """`replay` of one episode through one compiled program for every length (padded to
+    the map's longest episode, `max_steps`), trimmed back to its own T + 1 timesteps."""
+    states, timesteps = replay(episode, fmt, pad_to=max_steps(episode))
+    end = episode.num_steps + 1
+    return jax.tree.map(lambda x: x[:end], (states, timesteps))
+
+
 def _settings(episode: Episode) -> tuple:
     return (episode.map_name, tuple(episode.screen_size), tuple(episode.minimap_size),
             episode.step_mul, episode.score_index, episode.score_multiplier,

@@ -26,7 +26,7 @@ from PIL import Image, ImageDraw, ImageFont
 from sc2jax.environment.engine.human_view import HumanView
 from sc2jax.environment.engine.rules.units import UNIT_DATA, UnitType
 from sc2jax.environment.engine.simulator import Simulator
-from sc2jax.environment.episodes import Episode, max_steps, replay
+from sc2jax.environment.episodes import Episode, replay_whole
 from sc2jax.environment.interface import specs
 from sc2jax.environment.interface.dense import DenseAction, from_dense
 from sc2jax.environment.interface.features import MINIMAP_FEATURES, SCREEN_FEATURES, Feature
@@ -242,8 +242,7 @@ def episode_pictures(episode: Episode, width: int = 256,
                      layers: Sequence[Feature] = ()) -> EpisodePictures:
     """The pictures of a recorded episode, replayed with only `layers` rendered."""
     fmt = layer_format(episode.screen_size, episode.minimap_size, layers)
-    # Replayed to the map's longest episode: one compiled program for every length.
-    states, timesteps = replay(episode, fmt, pad_to=max_steps(episode))
+    states, timesteps = replay_whole(episode, fmt)
     draw = pictures(episode.simulator(fmt), width, tuple(layers)).batched
     end = episode.num_steps + 1
     # Drawn CHUNK steps at a time (one compiled size; the last chunk padded), so that
@@ -254,8 +253,8 @@ def episode_pictures(episode: Episode, width: int = 256,
         chunk = jax.tree.map(lambda x, i=index: x[i], (states, timesteps.observation))
         chunks.append(jax.device_get(draw(*chunk)))
     views, panels, values = jax.tree.map(lambda *xs: np.concatenate(xs)[:end], *chunks)
-    rewards = np.asarray(timesteps.reward)[:end]
-    return EpisodePictures(views, panels, values, np.cumsum(rewards, dtype=np.float64))
+    return EpisodePictures(views, panels, values,
+                           np.cumsum(np.asarray(timesteps.reward), dtype=np.float64))
 
 
 def step_text(episode: Episode, t: int, score: float) -> str:

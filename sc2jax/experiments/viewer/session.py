@@ -28,7 +28,7 @@ import numpy as np
 from sc2jax.environment.engine.compiled import compiled
 from sc2jax.environment.engine.human_view import HumanView
 from sc2jax.environment.engine.simulator import EnvParams, Simulator
-from sc2jax.environment.episodes import Episode, max_steps, replay
+from sc2jax.environment.episodes import Episode, replay_whole
 from sc2jax.environment.interface.dense import DenseAction, to_dense
 from sc2jax.environment.interface.features import Feature
 from sc2jax.environment.interface.functions import FUNCTIONS, FunctionCall, validate_function_call
@@ -283,11 +283,9 @@ class Playback(Timeline):
         fmt = layer_format(episode.screen_size, episode.minimap_size, layers)
         self.sim = episode.simulator(fmt)
         self._drawing = _Drawing(self.sim, width, layers)
-        states, timesteps = jax.device_get(replay(episode, fmt, pad_to=max_steps(episode)))
-        end = episode.num_steps + 1
-        self._states = jax.tree.map(lambda x: x[:end], states)
-        self._observations = jax.tree.map(lambda x: x[:end], timesteps.observation)
-        self._scores = np.cumsum(np.asarray(timesteps.reward)[:end], dtype=np.float64)
+        self._states, timesteps = jax.device_get(replay_whole(episode, fmt))
+        self._observations = timesteps.observation
+        self._scores = np.cumsum(np.asarray(timesteps.reward), dtype=np.float64)
 
     @property
     def length(self) -> int:
