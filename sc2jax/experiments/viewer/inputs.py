@@ -36,10 +36,14 @@ def view_to_world(view: HumanView, x: float, y: float) -> tuple[float, float]:
     return x0 + x / view.scale, y1 - y / view.scale
 
 
-def _screen_point(camera: Camera, centre, world) -> list[int]:
+def _screen_point(camera: Camera, centre, world, clip: bool = False) -> list[int]:
+    """The screen pixel of a world point: off the screen, clipped to it with `clip` (a
+    drag's corner may leave the screen), else refused."""
     px = camera.world_to_pixel(np.asarray(centre, np.float32),
                                np.asarray([world], np.float32))[0]
     w, h = camera.size
+    if clip:
+        return [int(np.clip(px[0], 0, w - 1)), int(np.clip(px[1], 0, h - 1))]
     if not (0 <= px[0] < w and 0 <= px[1] < h):
         raise ValueError(f"the point {tuple(round(v, 1) for v in world)} is off the screen "
                          f"(outside the camera's rectangle); move the camera there first")
@@ -122,17 +126,9 @@ def call_for_click(click: dict, view: HumanView, minimap_view: HumanView, camera
         corner = view_to_world(view, float(click["x2"]), float(click["y2"]))
     except (KeyError, TypeError, ValueError):
         raise ValueError(f"a rect click needs numeric x2 and y2, got {click!r}") from None
-    a, b = (_clipped_screen_point(camera, camera_centre, p) for p in (world, corner))
+    a, b = (_screen_point(camera, camera_centre, p, clip=True) for p in (world, corner))
     return FUNCTIONS.select_rect(int(shift), [min(a[0], b[0]), min(a[1], b[1])],
                                  [max(a[0], b[0]), max(a[1], b[1])])
-
-
-def _clipped_screen_point(camera: Camera, centre, world) -> list[int]:
-    """A rectangle's corner on the screen, clipped to it (a drag may leave the screen)."""
-    px = camera.world_to_pixel(np.asarray(centre, np.float32),
-                               np.asarray([world], np.float32))[0]
-    w, h = camera.size
-    return [int(np.clip(px[0], 0, w - 1)), int(np.clip(px[1], 0, h - 1))]
 
 
 def _first_available(available, options) -> FunctionCall:
