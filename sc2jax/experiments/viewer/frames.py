@@ -174,6 +174,13 @@ def _fit(text: str, font, width: int, keep_end: bool = False) -> str:
     return text
 
 
+def layer_legend(feature: Feature, values: np.ndarray) -> list:
+    """(value, colour, label) of each non-zero value on a categorical layer (int [...]),
+    ascending; unit types named."""
+    names = UNIT_NAMES if feature.name == "unit_type" else None
+    return legend(feature, [v for v in np.unique(values) if v != 0], names)
+
+
 def _draw_legend(draw, font, feature, values, x, y, right):
     """A layer's legend on one line from x to `right`: a categorical layer's non-zero
     values (as many as fit) as coloured squares and labels; a scalar layer's heat map
@@ -185,9 +192,7 @@ def _draw_legend(draw, font, feature, values, x, y, right):
                       fill=tuple(int(c) for c in bar[k * (len(bar) - 1) // 39]))
         draw.text((x + 44, y), f"0 to {feature.scale}", font=font, fill=_TEXT)
         return
-    values = np.unique(values)
-    names = UNIT_NAMES if feature.name == "unit_type" else None
-    for _, rgb, label in legend(feature, [v for v in values if v != 0], names):
+    for _, rgb, label in layer_legend(feature, values):
         end = x + 14 + int(draw.textlength(label, font=font))
         if end > right:
             break

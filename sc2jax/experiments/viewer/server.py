@@ -32,8 +32,7 @@ import urllib.parse
 import numpy as np
 from PIL import Image
 
-from sc2jax.environment.interface.palettes import legend
-from sc2jax.experiments.viewer.frames import UNIT_NAMES
+from sc2jax.experiments.viewer.frames import layer_legend
 from sc2jax.experiments.viewer.session import PlaySession, Timeline
 
 ASSETS = {"/": ("index.html", "text/html; charset=utf-8"),
@@ -170,9 +169,8 @@ class ViewerServer:
         for feature, values in frame.values.items():
             entry = {"name": f"{feature.layer_set}/{feature.name}"}
             if feature.is_categorical:
-                names = UNIT_NAMES if feature.name == "unit_type" else None
                 entry["legend"] = [[v, list(rgb), label] for v, rgb, label in
-                                   legend(feature, np.unique(values)[:16], names)]
+                                   layer_legend(feature, values)[:16]]
             else:  # The heat map's range, and the largest value on the layer now.
                 entry["scale"] = [0, feature.scale, int(values.max())]
             layers.append(entry)

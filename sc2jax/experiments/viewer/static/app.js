@@ -80,7 +80,7 @@ function renderLayers() {
     box.className = "layer";
     const legend = l.scale ?
       `<i class="heat"></i>0 to ${l.scale[1]} (now up to ${l.scale[2]})` :
-      (l.legend || []).filter(([v]) => v !== 0).map(([, rgb, label]) =>
+      (l.legend || []).map(([, rgb, label]) =>
         `<i style="background: rgb(${rgb.join(",")})"></i>${label}`).join("");
     box.innerHTML = `<h2>${l.name}</h2><img alt="${l.name}" src="/api/image/layer/` +
       `${l.name}.png?v=${status.version}"><div class="legend">${legend}</div>`;
