@@ -124,6 +124,23 @@ def _point(data: dict, scale: float = 4096.0) -> tuple[float, float]:
     return data["x"] / scale, data["y"] / scale
 
 
+def removed_indices(length: int, bits: int) -> set[int]:
+    """The selection indices a remove mask names, from s2protocol's (length, bits).
+
+    The game writes the mask as its whole bytes, in order (index 8k + j is bit j of byte
+    k), then the `length % 8` indices left over; s2protocol reads the `length` bits as one
+    integer, the first read on top. So byte k is the integer's bits
+    [length - 8k - 8, length - 8k) and the leftover indices its lowest bits (sc2reader's
+    `read_selection_bitmask` reads them so; scripts/selection_tracking.py measures it).
+    """
+    whole, rest = divmod(length, 8)
+    out = {whole * 8 + j for j in range(rest) if (bits >> j) & 1}
+    for k in range(whole):
+        byte = (bits >> (length - 8 * k - 8)) & 0xFF
+        out.update(8 * k + j for j in range(8) if (byte >> j) & 1)
+    return out
+
+
 def _apply_remove(units: list[int], mask: dict) -> list[int]:
     """The units a selection delta's remove mask keeps, in order."""
     kind, value = next(iter(mask.items()))
@@ -132,14 +149,15 @@ def _apply_remove(units: list[int], mask: dict) -> list[int]:
     if kind == "OneIndices":  # The indices removed.
         drop = set(value)
         return [t for i, t in enumerate(units) if i not in drop]
-    if kind == "Mask":  # s2protocol's (length, bits); bit i taken as index i.
-        _, bits = value
-        return [t for i, t in enumerate(units) if not (bits >> i) & 1]
+    if kind == "Mask":
+        drop = removed_indices(*value)
+        return [t for i, t in enumerate(units) if i not in drop]
     return list(units)  # "None": nothing removed.
 
 
 def _apply_delta(units: list[int], delta: dict) -> list[int]:
-    return _apply_remove(units, delta["m_removeMask"]) + list(delta["m_addUnitTags"])
+    return sorted(set(_apply_remove(units, delta["m_removeMask"]))
+                  | set(delta["m_addUnitTags"]))
 
 
 class _Labeller:
@@ -205,8 +223,7 @@ class _Labeller:
         if act.startswith("set"):
             self.groups[index] = list(self.selection)
         elif act.startswith("append"):
-            group = self.groups.setdefault(index, [])
-            group += [t for t in self.selection if t not in group]
+            self.groups[index] = sorted(set(self.groups.get(index, ())) | set(self.selection))
         else:  # recall
             self.before_recall = self.selection
             self.selection = list(self.groups.get(index, ()))
@@ -223,7 +240,7 @@ class _Labeller:
         kept = _apply_remove(base, delta["m_removeMask"])
         removed = [t for t in base if t not in kept]
         added = list(delta["m_addUnitTags"])
-        self.selection = kept + added
+        self.selection = sorted(set(kept) | set(added))
         if echo:
             return None, "selection of a control group (follows a control group event)"
         if not added:

@@ -23,6 +23,7 @@ from sc2jax.replay_sl import (
     read_metadata,
 )
 from sc2jax.replay_sl.abilities import resolve
+from sc2jax.replay_sl.actions import removed_indices
 from sc2jax.replay_sl.archive import protocol_build_for
 from sc2jax.replay_sl.metadata import clean_name
 from sc2jax.replay_sl.observations import View, observe_step
@@ -93,6 +94,27 @@ def test_a_known_command_at_a_known_loop():
     # Steps without an action are no_op, and there is one step per 8 loops.
     assert len(labels.steps) == replay.game_loops // 8 + 1
     assert labels.steps[1].game_loop == 8
+
+
+def test_remove_masks_are_read_as_the_game_writes_them():
+    # A 10-index mask removing indices 0 and 9: byte 0 (bit 0 set) is read first, so it
+    # is on top of the integer (bit 2); the leftover index 9 is bit 1.
+    assert removed_indices(10, 0b0110) == {0, 9}
+    assert removed_indices(5, 0b10001) == {0, 4}  # Shorter than a byte: bit i is index i.
+    assert removed_indices(16, 0x80_01) == {7, 8}  # Byte 0 bit 7 on top, byte 1 bit 0 last.
+    # The game trims a mask after its last removed unit: read so, the last index is set.
+    replay = open_replay(REPLAYS / KAIROS)
+    last_set = []
+    for e in replay.game_events():
+        if e["_event"] == "NNet.Game.SSelectionDeltaEvent":
+            kind, value = next(iter(e["m_delta"]["m_removeMask"].items()))
+            if kind == "Mask" and value[0] > 8 and value[0] % 8:
+                last_set.append(value[0] - 1 in removed_indices(*value))
+    assert len(last_set) > 20 and np.mean(last_set) > 0.9
+    # The selection is kept in the game's order, by tag, which the indices refer to.
+    labels = label_actions(replay, read_metadata(replay), 1)
+    assert all(list(s) == sorted(s) for s in labels.selections)
+    assert max(map(len, labels.selections)) > 8
 
 
 def test_the_camera_projection_is_pysc2s():
