@@ -101,10 +101,21 @@ class Coverage:
 
 
 class _Positions:
-    """Each unit's last known world point, from tracker events and the player's commands."""
+    """Each unit's last known world point, from tracker events and the player's commands.
+
+    Attributes:
+      at: tag index -> (x, y).
+      changes: how many times `at` has changed (a snapshot is reused while it has not).
+    """
 
     def __init__(self):
         self.at: dict[int, tuple[float, float]] = {}
+        self.changes = 0
+
+    def move(self, units, world) -> None:
+        for index in units:
+            self.at[index] = tuple(world)
+        self.changes += 1
 
     def tracker(self, event: dict) -> None:
         kind = event["_event"]
@@ -115,6 +126,9 @@ class _Positions:
                 self.at[index] = (float(x), float(y))
         elif kind == "NNet.Replay.Tracker.SUnitDiedEvent":
             self.at.pop(event["m_unitTagIndex"], None)
+        else:
+            return
+        self.changes += 1
 
     def get(self, tag: int) -> tuple[float, float] | None:
         return self.at.get(unit_index(tag))
@@ -183,12 +197,11 @@ class _Labeller:
     def screen_xy(self, world) -> list[int]:
         px = self.screen.world_to_pixel(np.asarray(self.camera, np.float32),
                                         np.asarray([world], np.float32))[0]
-        return [int(np.clip(v, 0, self.size - 1)) for v in px]
+        return [int(min(max(float(v), 0.0), self.size - 1)) for v in px]
 
     def minimap_xy(self, world) -> list[int]:
         px = self.minimap.world_to_pixel(np.asarray([world], np.float32))[0]
-        m = self.minimap_size - 1
-        return [int(np.clip(px[0], 0, m)), int(np.clip(px[1], 0, m))]
+        return [int(min(max(float(v), 0.0), self.minimap_size - 1)) for v in px]
 
     # Events.
     def event(self, e: dict) -> tuple[FunctionCall | None, str]:
@@ -300,8 +313,7 @@ class _Labeller:
                 args.append(self.minimap_xy(world))
         if world is not None:  # The commanded units' newest known point: where they go.
             units = tuple(unit_index(tag) for tag in self.selection)
-            for index in units:
-                self.positions.at[index] = tuple(world)
+            self.positions.move(units, world)
             self.orders.append(Order(self.loop, units, float(world[0]), float(world[1])))
         return FunctionCall(f.id, args), ""
 
@@ -406,14 +418,20 @@ def label_players(replay: Replay, metadata: ReplayMetadata, player_ids=None, *,
     cameras = {u: np.zeros((num_steps, 2), np.float32) for u in labellers}
     selections: dict[int, list[tuple[int, ...]]] = {u: [] for u in labellers}
     unit_points: list[UnitPoints] = []
+    seen = [-1]  # positions.changes at the last snapshot.
 
     def snapshot(until: int) -> None:
         """Records the state at the first loop of every step that starts before `until`."""
         while len(unit_points) < num_steps and len(unit_points) * step_mul < until:
             t = len(unit_points)
-            index = np.fromiter(positions.at, np.int64, len(positions.at))
-            xy = np.asarray(list(positions.at.values()), np.float32).reshape(-1, 2)
-            unit_points.append(UnitPoints(index, xy))
+            if not unit_points or positions.changes != seen[0]:
+                index = np.fromiter(positions.at, np.int64, len(positions.at))
+                xy = np.asarray(list(positions.at.values()), np.float32).reshape(-1, 2)
+                index.flags.writeable = xy.flags.writeable = False
+                seen[0] = positions.changes
+                unit_points.append(UnitPoints(index, xy))
+            else:  # Nothing moved since the last step: the same (read-only) arrays.
+                unit_points.append(unit_points[-1])
             for user, labeller in labellers.items():
                 cameras[user][t] = labeller.camera
                 selections[user].append(tuple(labeller.selection))

@@ -23,6 +23,8 @@ from typing import Any
 
 import mpyq
 
+from sc2jax.replay_sl.fast_bits import decoding_fast
+
 _FILES = {"details": "replay.details", "initdata": "replay.initData",
           "attributes": "replay.attributes.events", "game": "replay.game.events",
           "tracker": "replay.tracker.events"}
@@ -119,7 +121,8 @@ class Replay:
     def _decode(self, stream: str, decoder: str) -> Any:
         data = self._read(stream)
         try:
-            return getattr(self._protocol, decoder)(data)
+            with decoding_fast():
+                return getattr(self._protocol, decoder)(data)
         except Exception as error:
             raise ReplayError(self.path, f"{_FILES[stream]} does not decode "
                                          f"({type(error).__name__}: {error})") from None
@@ -128,7 +131,8 @@ class Replay:
         if stream not in self._decoded:  # Decoded once: labels and units both read them.
             data = self._read(stream)
             try:
-                self._decoded[stream] = list(getattr(self._protocol, decoder)(data))
+                with decoding_fast():
+                    self._decoded[stream] = list(getattr(self._protocol, decoder)(data))
             except Exception as error:
                 raise ReplayError(self.path, f"{_FILES[stream]} does not decode to its end "
                                              f"({type(error).__name__}: {error})") from None

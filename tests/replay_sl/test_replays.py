@@ -7,6 +7,7 @@ import sys
 
 import numpy as np
 import pytest
+from s2protocol import decoders as s2_decoders
 
 from sc2jax.environment.interface.camera import Camera
 from sc2jax.environment.interface.features import MINIMAP_FEATURES, SCREEN_FEATURES
@@ -25,6 +26,7 @@ from sc2jax.replay_sl import (
 from sc2jax.replay_sl.abilities import resolve
 from sc2jax.replay_sl.actions import removed_indices
 from sc2jax.replay_sl.archive import protocol_build_for
+from sc2jax.replay_sl.fast_bits import FastBitBuffer, decoding_fast
 from sc2jax.replay_sl.metadata import clean_name
 from sc2jax.replay_sl.observations import View, observe_step
 from sc2jax.replay_sl.positions import errors as position_errors
@@ -141,6 +143,26 @@ def test_abilities_map_to_pysc2_functions():
             FUNCTIONS.Train_Queen_quick.id)
     assert resolve(76114, 73, 0, FunctionType.cmd_quick).function == (
         FUNCTIONS.Train_Baneling_quick.id)
+
+
+def test_the_fast_bit_reader_reads_what_s2protocols_reads():
+    data = bytes(range(7, 250, 13)) * 3
+    for sizes in ([3, 5, 8, 1, 16, 7, 9, 32], [12, 1, 1, 30, 2, 64], [8] * 20):
+        stock, fast = s2_decoders.BitPackedBuffer(data), FastBitBuffer(data)
+        assert [stock.read_bits(n) for n in sizes] == [fast.read_bits(n) for n in sizes]
+        stock.byte_align(), fast.byte_align()
+        assert stock.used_bits() == fast.used_bits()
+    with pytest.raises(s2_decoders.TruncatedError):
+        FastBitBuffer(b"ab").read_bits(17)
+    # A replay's streams decode (`open_replay` reads with the fast buffer) to the events
+    # that s2protocol's own buffer gives.
+    replay = open_replay(REPLAYS / SLEEPERS)
+    with decoding_fast(), decoding_fast():  # Nests; hands s2protocol's buffer back.
+        assert s2_decoders.BitPackedBuffer is FastBitBuffer
+    assert s2_decoders.BitPackedBuffer is not FastBitBuffer
+    for stream, events in (("game", replay.game_events()), ("tracker", replay.tracker_events())):
+        decode = getattr(replay._protocol, f"decode_replay_{stream}_events")
+        assert list(decode(replay._read(stream))) == events
 
 
 def test_a_corrupt_and_a_truncated_file_are_replay_errors(tmp_path):
