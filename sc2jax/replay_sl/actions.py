@@ -19,7 +19,8 @@ else `no_op`, as in the paper's section 5. The events map as follows:
 Screen points are the world point projected through the camera (orthographic, 24 world
 units across the screen's longer side), clipped to the screen. A unit's world point is
 its last one known: from the tracker events (born, placed, or reported in a positions
-event), or the target point of the player's last command to it, whichever is newer.
+event), or the target point of the player's last command to it, whichever is newer;
+a unit of a type that does not move (a structure given a rally point) keeps its own.
 What cannot be represented (a deleted control group, saved cameras, a command whose
 ability PySC2 has no function for) is counted in `Coverage`, never guessed.
 """
@@ -39,9 +40,11 @@ from sc2jax.environment.interface.functions import FUNCTIONS, FunctionCall, Func
 from sc2jax.replay_sl.abilities import resolve
 from sc2jax.replay_sl.archive import Replay
 from sc2jax.replay_sl.metadata import ReplayMetadata
-from sc2jax.replay_sl.units import reported_positions, unit_index
+from sc2jax.replay_sl.speeds import speed
+from sc2jax.replay_sl.units import reported_positions, stable_unit_ids, unit_index
 
 STEP_MUL = 8
+_TRACKER = "NNet.Replay.Tracker.S"
 ACTIVE_SELECTION = 10  # The control group id of the current selection in selection deltas.
 MINIMAP_FLAG = 0x10000  # A command's flag: issued on the minimap.
 QUEUED_FLAG = 0x2
@@ -73,7 +76,8 @@ class Order(NamedTuple):
 
     Attributes:
       game_loop: when it was given.
-      units: the selected units' tag indices (as tracker events name units).
+      units: the selected units that move (`speeds`), by tag index (as tracker events
+        name units).
       x, y: the target point (world units).
     """
 
@@ -105,26 +109,34 @@ class _Positions:
 
     Attributes:
       at: tag index -> (x, y).
+      types: tag index -> its stable unit id now.
       changes: how many times `at` has changed (a snapshot is reused while it has not).
     """
 
     def __init__(self):
         self.at: dict[int, tuple[float, float]] = {}
+        self.types: dict[int, int] = {}
         self.changes = 0
 
-    def move(self, units, world) -> None:
-        for index in units:
+    def move(self, units, world) -> tuple[int, ...]:
+        """Puts the units of a type that moves (`speeds`) at `world`; returns them."""
+        moving = tuple(i for i in units if speed(self.types.get(i, 0)) > 0)
+        for index in moving:
             self.at[index] = tuple(world)
         self.changes += 1
+        return moving
 
     def tracker(self, event: dict) -> None:
-        kind = event["_event"]
-        if kind in ("NNet.Replay.Tracker.SUnitBornEvent", "NNet.Replay.Tracker.SUnitInitEvent"):
+        kind = event["_event"][len(_TRACKER):]
+        if kind in ("UnitBornEvent", "UnitInitEvent", "UnitTypeChangeEvent"):
+            self.types[event["m_unitTagIndex"]] = stable_unit_ids().get(
+                event["m_unitTypeName"].decode(), 0)
+        if kind in ("UnitBornEvent", "UnitInitEvent"):
             self.at[event["m_unitTagIndex"]] = (float(event["m_x"]), float(event["m_y"]))
-        elif kind == "NNet.Replay.Tracker.SUnitPositionsEvent":
+        elif kind == "UnitPositionsEvent":
             for index, x, y in reported_positions(event):
                 self.at[index] = (float(x), float(y))
-        elif kind == "NNet.Replay.Tracker.SUnitDiedEvent":
+        elif kind == "UnitDiedEvent":
             self.at.pop(event["m_unitTagIndex"], None)
         else:
             return
@@ -312,8 +324,7 @@ class _Labeller:
             elif arg.name == "minimap":
                 args.append(self.minimap_xy(world))
         if world is not None:  # The commanded units' newest known point: where they go.
-            units = tuple(unit_index(tag) for tag in self.selection)
-            self.positions.move(units, world)
+            units = self.positions.move([unit_index(tag) for tag in self.selection], world)
             self.orders.append(Order(self.loop, units, float(world[0]), float(world[1])))
         return FunctionCall(f.id, args), ""
 

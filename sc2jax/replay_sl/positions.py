@@ -8,8 +8,8 @@ orders given to it after that report, in turn:
 
 - "last": the last reported point (orders ignored);
 - "target": the target of the last order (the unit got there);
-- "move": a straight walk towards each order's target at `speed` world units per game
-  loop, from where the previous order left it (a typical ground unit's speed).
+- "move": a straight walk towards each order's target at the unit type's speed
+  (`speeds`), from where the previous order left it.
 
 `errors` measures each against the points the tracker reports, from what was known
 strictly before each report.
@@ -23,12 +23,13 @@ import collections
 import numpy as np
 
 from sc2jax.replay_sl.actions import Order
+from sc2jax.replay_sl.speeds import speed
 from sc2jax.replay_sl.units import UnitTable, unit_index
 
 METHODS = ("last", "target", "move")
 SPEED = 3.15 / 22.4
 """World units per game loop: a Marine's 3.15 per second at Faster speed (22.4 game loops
-per second), a typical ground unit's speed."""
+per second), a typical ground unit's speed; `estimate`'s default."""
 
 
 def orders_by_unit(orders: list[Order]) -> dict[int, list[tuple[int, float, float]]]:
@@ -74,7 +75,8 @@ def errors(table: UnitTable, orders: list[Order], owner_ids: tuple[int, ...] = (
 
     The estimate uses only what was known before the report: the unit's previous report
     (or its birth) and the orders given before it. Reports of units without orders since
-    then are left out: every method gives the previous point for them.
+    then are left out: every method gives the previous point for them. "move" walks at
+    the speed of the unit's type at its previous report.
 
     Returns:
       method -> float32 [R] errors, one per report.
@@ -84,6 +86,11 @@ def errors(table: UnitTable, orders: list[Order], owner_ids: tuple[int, ...] = (
     index_of_row = unit_index(table.tag)
     for row in range(len(table.tag)):
         known[row].append((int(table.born[row]), float(table.x[row]), float(table.y[row])))
+    types: dict[int, tuple[list[int], list[int]]] = {}  # Row -> (loops, its types from then).
+    for loop, row, unit_type in table.type_changes.tolist():
+        loops, kinds = types.setdefault(row, ([int(table.born[row])], [int(table.unit_type[row])]))
+        loops.append(loop)
+        kinds.append(unit_type)
     out = {m: [] for m in METHODS}
     for loop, row, x, y in table.positions:
         loop, row = int(loop), int(row)
@@ -92,8 +99,10 @@ def errors(table: UnitTable, orders: list[Order], owner_ids: tuple[int, ...] = (
         unit_orders = [o for o in by_unit.get(int(index_of_row[row]), [])
                        if previous[0] <= o[0] < loop and o[0] >= table.born[row]]
         if table.owner[row] in owner_ids and unit_orders:
+            loops, kinds = types.get(row, ([0], [int(table.unit_type[row])]))
+            unit_speed = speed(kinds[max(bisect.bisect_right(loops, previous[0]) - 1, 0)])
             for m in METHODS:
-                ex, ey = estimate(m, previous, unit_orders, loop)
+                ex, ey = estimate(m, previous, unit_orders, loop, unit_speed)
                 out[m].append(float(np.hypot(ex - x, ey - y)))
         history.append((loop, float(x), float(y)))
     return {m: np.asarray(v, np.float32) for m, v in out.items()}

@@ -31,7 +31,8 @@ from sc2jax.replay_sl.metadata import clean_name
 from sc2jax.replay_sl.observations import View, observe_step
 from sc2jax.replay_sl.positions import errors as position_errors
 from sc2jax.replay_sl.positions import estimate
-from sc2jax.replay_sl.units import stable_unit_ids, unit_table
+from sc2jax.replay_sl.speeds import speed
+from sc2jax.replay_sl.units import stable_unit_ids, unit_index, unit_table
 
 REPLAYS = pathlib.Path(__file__).parents[3] / "shared" / "replays"
 if not REPLAYS.is_dir():
@@ -235,6 +236,37 @@ def test_orders_bring_estimates_closer_to_the_tracker_reports():
     found = position_errors(unit_table(replay), orders)
     assert found["last"].size == found["move"].size > 500
     assert np.median(found["move"]) < 0.8 * np.median(found["last"])
+
+
+def test_structures_stay_put_when_given_a_rally_point():
+    # A rally point given to a Barracks or a Command Center is a command with a target
+    # point; the structure stays where it was placed, and only units that move are in
+    # an order.
+    replay = open_replay(REPLAYS / KAIROS)
+    labels = label_actions(replay, read_metadata(replay), 1)
+    table = unit_table(replay)
+    rally = [FUNCTIONS[s.call.function].name for s in labels.steps
+             if FUNCTIONS[s.call.function].name.startswith("Rally_")]
+    assert len(rally) > 5
+    ids = stable_unit_ids()
+    orders = labels.orders
+    at = table.at([o.game_loop for o in orders])
+    indices = unit_index(table.tag)
+    types = [at.unit_type[n][np.isin(indices, o.units) & at.alive[n]]
+             for n, o in enumerate(orders)]
+    assert len(orders) > 500 and all(speed(t) > 0 for ts in types for t in ts)
+    assert sum(len(ts) for ts in types) > 1000 and ids["Barracks"] not in np.concatenate(types)
+    structures = np.isin(table.unit_type, [ids["Barracks"], ids["CommandCenter"]]) & (
+        table.owner == 1)
+    structures[table.type_changes[:, 1]] = False  # Lifted off, or made an Orbital Command.
+    assert structures.sum() >= 3
+    for t in range(0, len(labels.steps), 97):
+        known = dict(zip(labels.unit_points[t].index.tolist(),
+                         labels.unit_points[t].xy.tolist()))
+        for row in np.flatnonzero(structures):
+            index = int(unit_index(table.tag[row]))
+            if index in known and table.born[row] <= labels.steps[t].game_loop < table.died[row]:
+                np.testing.assert_allclose(known[index], (table.x[row], table.y[row]))
 
 
 @pytest.fixture(scope="module")
