@@ -18,9 +18,9 @@ else `no_op`, as in the paper's section 5. The events map as follows:
 
 Screen points are the world point projected through the camera (orthographic, 24 world
 units across the screen's longer side), clipped to the screen. A unit's world point is
-its last one known: from the tracker events (born, placed, or reported in a positions
-event), or the target point of the player's last command to it, whichever is newer;
-a unit of a type that does not move (a structure given a rally point) keeps its own.
+its last tracker report (born, placed, or in a positions event), then a walk at its
+type's speed towards the target of each later command of its player (`_Positions`); a
+unit of a type that does not move (a structure given a rally point) stays.
 What cannot be represented (a deleted control group, saved cameras, a command whose
 ability PySC2 has no function for) is counted in `Coverage`, never guessed.
 """
@@ -40,7 +40,7 @@ from sc2jax.environment.interface.functions import FUNCTIONS, FunctionCall, Func
 from sc2jax.replay_sl.abilities import resolve
 from sc2jax.replay_sl.archive import Replay
 from sc2jax.replay_sl.metadata import ReplayMetadata
-from sc2jax.replay_sl.speeds import speed
+from sc2jax.replay_sl.movement import speed, walk
 from sc2jax.replay_sl.units import reported_positions, stable_unit_ids, unit_index
 
 STEP_MUL = 8
@@ -76,7 +76,7 @@ class Order(NamedTuple):
 
     Attributes:
       game_loop: when it was given.
-      units: the selected units that move (`speeds`), by tag index (as tracker events
+      units: the selected units that move (`movement`), by tag index (as tracker events
         name units).
       x, y: the target point (world units).
     """
@@ -104,46 +104,87 @@ class Coverage:
     labelled: int = 0
 
 
+class _Walk(NamedTuple):
+    """A unit walking from `start` at `game_loop` towards `target`, `speed` a loop."""
+
+    game_loop: int
+    start: tuple[float, float]
+    target: tuple[float, float]
+    speed: float
+
+
 class _Positions:
-    """Each unit's last known world point, from tracker events and the player's commands.
+    """Each unit's estimated world point: its last tracker report (birth, placement or a
+    positions event), then a walk at its type's speed towards the target of each command
+    its player gives it (`positions`' "move" estimate).
 
     Attributes:
-      at: tag index -> (x, y).
+      at: tag index -> (x, y), for the units standing.
+      walks: tag index -> its `_Walk`, for the units walking.
       types: tag index -> its stable unit id now.
-      changes: how many times `at` has changed (a snapshot is reused while it has not).
+      changes: how many times `at` or `walks` changed (a snapshot is reused while they
+        have not and nobody walks).
     """
 
     def __init__(self):
         self.at: dict[int, tuple[float, float]] = {}
+        self.walks: dict[int, _Walk] = {}
         self.types: dict[int, int] = {}
         self.changes = 0
 
-    def move(self, units, world) -> tuple[int, ...]:
-        """Puts the units of a type that moves (`speeds`) at `world`; returns them."""
+    def point(self, index: int, game_loop: int) -> tuple[float, float] | None:
+        """A unit's point at `game_loop` (not before the last change), if known."""
+        w = self.walks.get(index)
+        if w is None:
+            return self.at.get(index)
+        return walk(w.start, w.target, w.speed, max(game_loop - w.game_loop, 0))
+
+    def get(self, tag: int, game_loop: int) -> tuple[float, float] | None:
+        return self.point(unit_index(tag), game_loop)
+
+    def move(self, units, world, game_loop: int) -> tuple[int, ...]:
+        """Sends the units of a type that moves (`movement`) towards `world` from where
+        they are at `game_loop` (a unit never seen is put there); returns them."""
         moving = tuple(i for i in units if speed(self.types.get(i, 0)) > 0)
+        target = (float(world[0]), float(world[1]))
         for index in moving:
-            self.at[index] = tuple(world)
+            start = self.point(index, game_loop)
+            if start is None:
+                self.at[index] = target
+            else:
+                self.at.pop(index, None)
+                self.walks[index] = _Walk(game_loop, start, target, speed(self.types[index]))
         self.changes += 1
         return moving
 
+    def snapshot(self, game_loop: int) -> dict[int, tuple[float, float]]:
+        """Every known unit's point at `game_loop`; walks that have ended stand from then."""
+        now = dict(self.at)
+        for index, w in self.walks.items():  # Snapshots come in order: loops >= the walks'.
+            now[index] = walk(w.start, w.target, w.speed, game_loop - w.game_loop)
+        for index in [i for i, w in self.walks.items() if now[i] == w.target]:
+            self.at[index] = self.walks.pop(index).target
+            self.changes += 1
+        return now
+
     def tracker(self, event: dict) -> None:
         kind = event["_event"][len(_TRACKER):]
+        index = event.get("m_unitTagIndex")
         if kind in ("UnitBornEvent", "UnitInitEvent", "UnitTypeChangeEvent"):
-            self.types[event["m_unitTagIndex"]] = stable_unit_ids().get(
-                event["m_unitTypeName"].decode(), 0)
+            self.types[index] = stable_unit_ids().get(event["m_unitTypeName"].decode(), 0)
         if kind in ("UnitBornEvent", "UnitInitEvent"):
-            self.at[event["m_unitTagIndex"]] = (float(event["m_x"]), float(event["m_y"]))
+            self.at[index] = (float(event["m_x"]), float(event["m_y"]))
+            self.walks.pop(index, None)
         elif kind == "UnitPositionsEvent":
             for index, x, y in reported_positions(event):
                 self.at[index] = (float(x), float(y))
+                self.walks.pop(index, None)
         elif kind == "UnitDiedEvent":
-            self.at.pop(event["m_unitTagIndex"], None)
+            self.at.pop(index, None)
+            self.walks.pop(index, None)
         else:
             return
         self.changes += 1
-
-    def get(self, tag: int) -> tuple[float, float] | None:
-        return self.at.get(unit_index(tag))
 
 
 def _point(data: dict, scale: float = 4096.0) -> tuple[float, float]:
@@ -274,7 +315,8 @@ class _Labeller:
             return self._select_point("toggle", removed[0])
         if len(added) == 1:
             return self._select_point("toggle" if kept else "select", added[0])
-        points = [p for p in map(self.positions.get, added) if p is not None]
+        points = [p for p in (self.positions.get(tag, self.loop) for tag in added)
+                  if p is not None]
         if not points:
             return None, "selected units with unknown positions"
         xs, ys = zip(*(self.screen_xy(p) for p in points))
@@ -282,7 +324,7 @@ class _Labeller:
                                      [max(xs), max(ys)]), ""
 
     def _select_point(self, act, tag):
-        point = self.positions.get(tag)
+        point = self.positions.get(tag, self.loop)
         if point is None:
             return None, "selected unit with an unknown position"
         return FUNCTIONS.select_point(act, self.screen_xy(point)), ""
@@ -324,7 +366,8 @@ class _Labeller:
             elif arg.name == "minimap":
                 args.append(self.minimap_xy(world))
         if world is not None:  # The commanded units' newest known point: where they go.
-            units = self.positions.move([unit_index(tag) for tag in self.selection], world)
+            units = self.positions.move([unit_index(tag) for tag in self.selection], world,
+                                        self.loop)
             self.orders.append(Order(self.loop, units, float(world[0]), float(world[1])))
         return FunctionCall(f.id, args), ""
 
@@ -435,9 +478,10 @@ def label_players(replay: Replay, metadata: ReplayMetadata, player_ids=None, *,
         """Records the state at the first loop of every step that starts before `until`."""
         while len(unit_points) < num_steps and len(unit_points) * step_mul < until:
             t = len(unit_points)
-            if not unit_points or positions.changes != seen[0]:
-                index = np.fromiter(positions.at, np.int64, len(positions.at))
-                xy = np.asarray(list(positions.at.values()), np.float32).reshape(-1, 2)
+            if not unit_points or positions.walks or positions.changes != seen[0]:
+                now = positions.snapshot(t * step_mul)
+                index = np.fromiter(now, np.int64, len(now))
+                xy = np.asarray(list(now.values()), np.float32).reshape(-1, 2)
                 index.flags.writeable = xy.flags.writeable = False
                 seen[0] = positions.changes
                 unit_points.append(UnitPoints(index, xy))

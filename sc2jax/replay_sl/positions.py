@@ -9,7 +9,7 @@ orders given to it after that report, in turn:
 - "last": the last reported point (orders ignored);
 - "target": the target of the last order (the unit got there);
 - "move": a straight walk towards each order's target at the unit type's speed
-  (`speeds`), from where the previous order left it.
+  (`movement`), from where the previous order left it.
 
 `errors` measures each against the points the tracker reports, from what was known
 strictly before each report.
@@ -23,7 +23,7 @@ import collections
 import numpy as np
 
 from sc2jax.replay_sl.actions import Order
-from sc2jax.replay_sl.speeds import speed
+from sc2jax.replay_sl.movement import speed, walk
 from sc2jax.replay_sl.units import UnitTable, unit_index
 
 METHODS = ("last", "target", "move")
@@ -60,11 +60,7 @@ def estimate(method: str, start: tuple[int, float, float],
         return after[-1][1], after[-1][2]
     for i, (t, tx, ty) in enumerate(after):
         end = after[i + 1][0] if i + 1 < len(after) else game_loop
-        dx, dy = tx - x, ty - y
-        distance = float(np.hypot(dx, dy))
-        step = min(distance, speed * (end - t))
-        if distance > 0:
-            x, y = x + dx / distance * step, y + dy / distance * step
+        x, y = walk((x, y), (tx, ty), speed, end - t)
     return x, y
 
 

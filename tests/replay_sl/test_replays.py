@@ -24,14 +24,14 @@ from sc2jax.replay_sl import (
     read_metadata,
 )
 from sc2jax.replay_sl.abilities import resolve
-from sc2jax.replay_sl.actions import removed_indices
+from sc2jax.replay_sl.actions import _Positions, removed_indices
 from sc2jax.replay_sl.archive import protocol_build_for
 from sc2jax.replay_sl.fast_bits import FastBitBuffer, decoding_fast
 from sc2jax.replay_sl.metadata import clean_name
+from sc2jax.replay_sl.movement import speed
 from sc2jax.replay_sl.observations import View, observe_step
 from sc2jax.replay_sl.positions import errors as position_errors
 from sc2jax.replay_sl.positions import estimate
-from sc2jax.replay_sl.speeds import speed
 from sc2jax.replay_sl.units import stable_unit_ids, unit_index, unit_table
 
 REPLAYS = pathlib.Path(__file__).parents[3] / "shared" / "replays"
@@ -224,6 +224,29 @@ def test_position_estimates_by_hand():
     np.testing.assert_allclose((x, y), (5 + 5 / np.sqrt(125) * 5, 5 / np.sqrt(125) * 10))
     with pytest.raises(ValueError, match="unknown method 'teleport'"):
         estimate("teleport", (0, 0.0, 0.0), orders, 30)
+
+
+def test_labels_walk_units_at_their_speed_towards_their_orders():
+    # The labeller's points follow positions' "move" estimate: a Marine born at (0, 0)
+    # and sent to (10, 0) at loop 16 is 8 loops of its speed along at loop 24, and
+    # there once the walk is long enough; a Barracks sent anywhere stays put.
+    def born(index, name, x, y):
+        return {"_event": "NNet.Replay.Tracker.SUnitBornEvent", "m_unitTagIndex": index,
+                "m_unitTypeName": name.encode(), "m_x": x, "m_y": y}
+
+    positions = _Positions()
+    positions.tracker(born(1, "Marine", 0, 0))
+    positions.tracker(born(2, "Barracks", 5, 5))
+    assert positions.move([1, 2], (10.0, 0.0), 16) == (1,)
+    v = speed(stable_unit_ids()["Marine"])
+    np.testing.assert_allclose(positions.point(1, 24), (8 * v, 0.0))
+    assert positions.point(1, 24) == estimate("move", (0, 0.0, 0.0), [(16, 10.0, 0.0)], 24, v)
+    now = positions.snapshot(16 + int(10 / v) + 1)
+    assert now[1] == (10.0, 0.0) and now[2] == (5.0, 5.0) and not positions.walks
+    positions.move([1], (10.0, 10.0), 200)
+    positions.tracker({"_event": "NNet.Replay.Tracker.SUnitPositionsEvent",
+                       "m_firstUnitIndex": 1, "m_items": [0, 3, 4]})  # A report ends it.
+    assert positions.point(1, 300) == (3.0, 4.0) and not positions.walks
 
 
 def test_orders_bring_estimates_closer_to_the_tracker_reports():

@@ -1,4 +1,5 @@
-"""How fast each unit type moves, for placing units between the tracker's reports.
+"""How units move, for placing them between the tracker's reports: each type's speed,
+and a straight walk towards an order's target.
 
 Speeds are the game's base movement speeds at Faster (world units per real second,
 Liquipedia's figures; the API's Normal-speed values times 1.4), without upgrades
@@ -10,6 +11,7 @@ and burrowed units, larvae and eggs. Lifted Terran structures fly.
 from __future__ import annotations
 
 import functools
+import math
 
 from sc2jax.replay_sl.units import stable_unit_ids
 
@@ -51,3 +53,15 @@ def speeds_by_id() -> dict[int, float]:
 def speed(unit_type: int) -> float:
     """World units per game loop of a stable unit id; 0 for a type that does not move."""
     return speeds_by_id().get(int(unit_type), 0.0)
+
+
+def walk(start: tuple[float, float], target: tuple[float, float], speed_: float,
+         loops: float) -> tuple[float, float]:
+    """Where a unit at `start` is after walking `loops` game loops straight towards
+    `target` at `speed_` world units a loop (at `target` once there)."""
+    dx, dy = target[0] - start[0], target[1] - start[1]
+    distance = math.hypot(dx, dy)
+    step = speed_ * loops
+    if step >= distance:
+        return float(target[0]), float(target[1])
+    return start[0] + dx / distance * step, start[1] + dy / distance * step
