@@ -14,16 +14,14 @@ from __future__ import annotations
 
 import argparse
 import collections
-import hashlib
 import multiprocessing
 import os
-import pathlib
 import time
 
 from sc2jax.atomic import write_json_atomic
 from sc2jax.replay_sl import ReplayError, label_players, open_replay, read_metadata, unit_table
 from sc2jax.replay_sl.availability import cards_from_json, counts_to_json, learn_cards
-from sc2jax.replay_sl.dataset import split_of
+from sc2jax.replay_sl.dataset import split_replays
 
 
 def _one(path: str) -> collections.Counter | str:
@@ -46,11 +44,10 @@ def main() -> None:
     parser.add_argument("--output", required=True, help="the JSON file to write")
     parser.add_argument("--processes", type=int, default=os.cpu_count())
     args = parser.parse_args()
-    paths = sorted(str(p) for p in pathlib.Path(args.replays).rglob("*.SC2Replay"))
-    train = [p for p in paths
-             if split_of(hashlib.sha1(pathlib.Path(p).read_bytes()).hexdigest()) == "train"]
-    if not train:
-        raise SystemExit(f"no training-split .SC2Replay files under {args.replays!r}")
+    try:
+        train = split_replays(args.replays, "train")
+    except ValueError as error:
+        raise SystemExit(str(error)) from None
     counts, failed, start = collections.Counter(), 0, time.time()
     with multiprocessing.get_context("spawn").Pool(args.processes) as pool:
         for i, result in enumerate(pool.imap_unordered(_one, train, chunksize=2), 1):
@@ -63,7 +60,7 @@ def main() -> None:
     uses = counts_to_json(counts)
     write_json_atomic(args.output, uses)
     cards = cards_from_json(uses).table
-    print(f"{len(train) - failed} training games ({failed} unreadable) of {len(paths)}: "
+    print(f"{len(train) - failed} training games ({failed} unreadable): "
           f"{len(uses)} unit types; {cards.sum()} card entries of "
           f"{sum(map(len, uses.values()))} type-function pairs used; "
           f"{time.time() - start:.0f} s")

@@ -21,10 +21,8 @@ from __future__ import annotations
 
 import argparse
 import collections
-import hashlib
 import multiprocessing
 import os
-import pathlib
 import time
 
 import numpy as np
@@ -32,7 +30,7 @@ import numpy as np
 from sc2jax.replay_sl import ReplayError, label_players, open_replay, read_metadata, unit_table
 from sc2jax.replay_sl.actions import removed_indices
 from sc2jax.replay_sl.availability import FIRST_CARD_FUNCTION, load_cards
-from sc2jax.replay_sl.dataset import split_of
+from sc2jax.replay_sl.dataset import split_replays
 
 
 def _one(path: str) -> collections.Counter | str:
@@ -71,11 +69,10 @@ def main() -> None:
     parser.add_argument("--replays", required=True, help="a folder searched for .SC2Replay")
     parser.add_argument("--processes", type=int, default=os.cpu_count())
     args = parser.parse_args()
-    paths = sorted(str(p) for p in pathlib.Path(args.replays).rglob("*.SC2Replay"))
-    test = [p for p in paths
-            if split_of(hashlib.sha1(pathlib.Path(p).read_bytes()).hexdigest()) == "test"]
-    if not test:
-        raise SystemExit(f"no test-split .SC2Replay files under {args.replays!r}")
+    try:
+        test = split_replays(args.replays, "test")
+    except ValueError as error:
+        raise SystemExit(str(error)) from None
     total, failed, start = collections.Counter(), 0, time.time()
     with multiprocessing.get_context("spawn").Pool(args.processes) as pool:
         for result in pool.imap_unordered(_one, test, chunksize=1):

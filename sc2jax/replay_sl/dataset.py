@@ -57,6 +57,22 @@ def split_of(sha1: str) -> str:
     return "test" if int(sha1, 16) % 10 == 0 else "train"
 
 
+def split_replays(folder: str | os.PathLike, split: str) -> list[str]:
+    """The .SC2Replay files under `folder` (searched recursively) in `split`, sorted.
+
+    Raises:
+      ValueError: for an unknown split, or a folder with none of the split's replays.
+    """
+    if split not in SPLITS:
+        raise ValueError(f"unknown split {split!r}; allowed: {list(SPLITS)}")
+    paths = sorted(str(p) for p in pathlib.Path(folder).rglob("*.SC2Replay"))
+    chosen = [p for p in paths
+              if split_of(hashlib.sha1(pathlib.Path(p).read_bytes()).hexdigest()) == split]
+    if not chosen:
+        raise ValueError(f"no {split}-split .SC2Replay files under {str(folder)!r}")
+    return chosen
+
+
 @dataclasses.dataclass(frozen=True)
 class Settings:
     """How replays are converted.
