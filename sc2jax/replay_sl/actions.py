@@ -41,10 +41,9 @@ from sc2jax.replay_sl.abilities import resolve
 from sc2jax.replay_sl.archive import Replay
 from sc2jax.replay_sl.metadata import ReplayMetadata
 from sc2jax.replay_sl.movement import speed, walk
-from sc2jax.replay_sl.units import reported_positions, stable_unit_ids, unit_index
+from sc2jax.replay_sl.units import TRACKER_EVENT, reported_positions, stable_unit_ids, unit_index
 
 STEP_MUL = 8
-_TRACKER = "NNet.Replay.Tracker.S"
 ACTIVE_SELECTION = 10  # The control group id of the current selection in selection deltas.
 MINIMAP_FLAG = 0x10000  # A command's flag: issued on the minimap.
 QUEUED_FLAG = 0x2
@@ -168,7 +167,7 @@ class _Positions:
         return now
 
     def tracker(self, event: dict) -> None:
-        kind = event["_event"][len(_TRACKER):]
+        kind = event["_event"][len(TRACKER_EVENT):]
         index = event.get("m_unitTagIndex")
         if kind in ("UnitBornEvent", "UnitInitEvent", "UnitTypeChangeEvent"):
             self.types[index] = stable_unit_ids().get(event["m_unitTypeName"].decode(), 0)
@@ -365,7 +364,7 @@ class _Labeller:
                 args.append(self.screen_xy(world))
             elif arg.name == "minimap":
                 args.append(self.minimap_xy(world))
-        if world is not None:  # The commanded units' newest known point: where they go.
+        if world is not None:  # The commanded units that move walk towards it.
             units = self.positions.move([unit_index(tag) for tag in self.selection], world,
                                         self.loop)
             self.orders.append(Order(self.loop, units, float(world[0]), float(world[1])))

@@ -24,7 +24,8 @@ NEVER = np.iinfo(np.int32).max
 """The game loop of an event that never happened (a unit still alive at the end)."""
 TAG_INDEX_BITS = 18
 """A unit's tag is (index << 18) | recycle; tracker events name units by index."""
-_TRACKER = "NNet.Replay.Tracker.S"
+TRACKER_EVENT = "NNet.Replay.Tracker.S"
+"""The prefix of a tracker event's `_event` name."""
 
 
 def unit_index(tag):
@@ -152,7 +153,7 @@ def unit_table(replay: Replay) -> UnitTable:
             rows[key].append(value)
 
     for e in replay.tracker_events():
-        kind, loop = e["_event"][len(_TRACKER):], e["_gameloop"]
+        kind, loop = e["_event"][len(TRACKER_EVENT):], e["_gameloop"]
         if kind == "UnitBornEvent":
             add(e, complete=True)
         elif kind == "UnitInitEvent":
