@@ -1,0 +1,88 @@
+"""Data-parallel training over a global device mesh: one process, or several joined by
+`jax.distributed` (JAX's multi-controller runtime: every process runs the same program).
+
+The environments of a `TrainState` are split over the mesh's devices (their leading
+[B] axis, `AXIS`); the learner's state (parameters, optimiser state) and the actor's
+PRNG key are replicated. The compiled step (`compiled_loop`) is the same program: given
+global arrays so placed, XLA partitions it, each device stepping its own environments,
+and the learner's mean over the batch becomes an all-reduce of the gradients, so the
+parameters stay identical on every device of every process.
+
+A run started the same way on every process (the same config and seed, so the same
+initial state everywhere) is `place`d: each process keeps the parts its own devices
+hold. On CPU, collectives between processes use gloo.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import jax
+import numpy as np
+from jax.experimental import multihost_utils
+from jax.sharding import Mesh, NamedSharding, PartitionSpec
+
+from sc2jax.experiments.training.compiled_loop import TrainState
+
+AXIS = "envs"
+"""The mesh's one axis: the environments (the batch)."""
+
+
+def initialize(coordinator: str | None = None, num_processes: int | None = None,
+               process_id: int | None = None) -> None:
+    """Joins this process to the others (`jax.distributed.initialize`), before any other
+    JAX work. Arguments left None are read from the cluster's environment (SLURM, Open
+    MPI, Kubernetes...) as JAX reads them.
+
+    Raises:
+      ValueError: for a process id outside [0, num_processes), or a count below 1.
+    """
+    if num_processes is not None and num_processes < 1:
+        raise ValueError(f"num_processes must be >= 1, got {num_processes!r}")
+    if process_id is not None and num_processes is not None and not (
+            0 <= process_id < num_processes):
+        raise ValueError(f"process_id must be in [0, {num_processes}), got {process_id!r}")
+    jax.config.update("jax_cpu_collectives_implementation", "gloo")
+    jax.distributed.initialize(coordinator_address=coordinator, num_processes=num_processes,
+                               process_id=process_id)
+
+
+def mesh(devices=None) -> Mesh:
+    """A one-axis mesh over `devices` (default: every device of every process)."""
+    return Mesh(np.asarray(jax.devices() if devices is None else devices), (AXIS,))
+
+
+def shardings(state: TrainState, over: Mesh) -> TrainState:
+    """The `NamedSharding` of each leaf of `state`: the actor's per-environment leaves
+    split on their leading axis, its key and the whole learner replicated."""
+    split, whole = NamedSharding(over, PartitionSpec(AXIS)), NamedSharding(over, PartitionSpec())
+    actor = jax.tree.map(lambda _: split, state.actor)
+    return TrainState(jax.tree.map(lambda _: whole, state.learner),
+                      actor.replace(key=jax.tree.map(lambda _: whole, state.actor.key)))
+
+
+def place(state: TrainState, over: Mesh) -> TrainState:
+    """`state`, which every process computed alike, as global arrays on `over`: each
+    process keeps the parts its devices hold.
+
+    Raises:
+      ValueError: when the environments do not split evenly over the devices.
+    """
+    num_envs = len(state.actor.episode_return)
+    if num_envs % over.size:
+        raise ValueError(f"{num_envs} environments do not split evenly over {over.size} "
+                         f"devices; use a multiple of {over.size}")
+
+    def put(leaf, sharding):
+        host = np.asarray(leaf)
+        return jax.make_array_from_callback(host.shape, sharding, lambda index: host[index])
+
+    return jax.tree.map(put, state, shardings(state, over))
+
+
+def gather(tree: Any) -> Any:
+    """`tree`'s global arrays as numpy on every process (an all-gather across processes;
+    a plain copy in one process)."""
+    if jax.process_count() == 1:
+        return jax.tree.map(np.asarray, tree)
+    return multihost_utils.process_allgather(tree, tiled=True)
