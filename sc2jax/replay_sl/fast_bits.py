@@ -1,4 +1,5 @@
-"""A faster bit reader for s2protocol's decoders: the same bits, half the time.
+"""A faster bit reader for s2protocol's decoders: the same bits, and a replay decoded in
+about 0.6 of the time (Kairos Junction's game and tracker events: 0.55 s against 0.95 s).
 
 s2protocol decodes a replay's streams in pure Python (a fifth of converting a replay to
 records), and about half of that is `BitPackedBuffer.read_bits`, which takes one byte
