@@ -24,6 +24,7 @@ import sys
 
 from absl import app, flags
 
+from sc2jax.environment.engine.xla.devices import use_cpu_cores
 from sc2jax.environment.interface.map_names import MINI_GAMES
 from sc2jax.experiments.reporting.paper import paper_rows
 from sc2jax.experiments.training import flags as training_flags
@@ -31,6 +32,10 @@ from sc2jax.experiments.training.config import TrainConfig
 from sc2jax.experiments.training.trainer import train
 
 training_flags.define_training()
+_DEVICES = flags.DEFINE_integer(
+    "devices", 1, "How many devices to split the environments over (data-parallel "
+    "training, sc2jax.experiments.training.data_parallel); on a CPU, that many host devices "
+    "are made. --num_envs must be a multiple of it.", lower_bound=1)
 _DEFAULTS = TrainConfig()
 
 flags.adopt_module_key_flags(training_flags)
@@ -38,6 +43,8 @@ flags.adopt_module_key_flags(training_flags)
 
 def main(argv) -> None:
     del argv
+    if _DEVICES.value > 1:
+        use_cpu_cores(_DEVICES.value)  # Before JAX starts; no change on an accelerator.
     training_flags.start_command()
     try:
         config = training_flags.config_from_flags()
@@ -49,7 +56,8 @@ def main(argv) -> None:
     print(f"Run directory: {os.path.abspath(run_dir)}\nSettings changed from the paper's "
           f"defaults: {changed or 'none'}", flush=True)
     try:
-        result = train(config, run_dir, sc2path=training_flags.FLAGS.sc2path)
+        result = train(config, run_dir, sc2path=training_flags.FLAGS.sc2path,
+                       devices=_DEVICES.value)
     except ValueError as error:
         sys.exit(f"error: {error}")
     print(f"\nTrained for {result.seconds / 60:.1f} min; "

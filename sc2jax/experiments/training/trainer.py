@@ -44,6 +44,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from sc2jax.atomic import write_json_atomic
+from sc2jax.checks import check_positive_int
 from sc2jax.environment.engine.compiled import simulator
 from sc2jax.environment.engine.simulator import Simulator
 from sc2jax.environment.interface import specs
@@ -52,7 +53,7 @@ from sc2jax.environment.sc2api.game_env import GameEnvBatch
 from sc2jax.experiments.reporting.metrics_log import CsvLog, Progress, read_csv
 from sc2jax.experiments.reporting.plots import plot_learning_curves
 from sc2jax.experiments.reporting.tensorboard import SummaryWriter
-from sc2jax.experiments.training import evaluation, pretrained
+from sc2jax.experiments.training import data_parallel, evaluation, pretrained
 from sc2jax.experiments.training.actor import ActorCore, actor_core, make_unroll
 from sc2jax.experiments.training.checkpoints import (
     Checkpointer,
@@ -274,7 +275,8 @@ def _split_chunks(loop: SplitLoop, actor: HostActor, config: TrainConfig) -> Chu
 def train(config: TrainConfig, run_dir: str, *, log: Callable[[str], None] = print,
           progress: bool = True, stop_after_updates: int | None = None,
           sc2path: str | None = None,
-          games: Callable[[TrainConfig], dm_env.Environment] | None = None) -> TrainResult:
+          games: Callable[[TrainConfig], dm_env.Environment] | None = None,
+          devices: int = 1) -> TrainResult:
     """Trains (or resumes) a run in `run_dir`, then evaluates it.
 
     Args:
@@ -287,15 +289,19 @@ def train(config: TrainConfig, run_dir: str, *, log: Callable[[str], None] = pri
       sc2path: the game's install (backend "sc2"; default `$SC2PATH`).
       games: builds the batched environment of a run on the real game (default
         `launch_games`; e.g. games already running, or simulator servers).
+      devices: how many of this process's devices to split the environments over
+        (`data_parallel`; the simulator only). The run is the same program on any
+        number, and its checkpoints resume on any number.
 
     Returns:
       The `TrainResult`.
 
     Raises:
-      ValueError: if `run_dir` holds a run with a different config, or `init_from`
-        cannot start this one (`start_params`).
+      ValueError: if `run_dir` holds a run with a different config, `init_from`
+        cannot start this one (`start_params`), or for devices the run cannot use.
     """
     start = time.time()
+    over = _devices_mesh(config, devices)
     check_run_dir(run_dir, config)
     agent = build(config)
     initial = None if has_checkpoint(run_dir) else start_params(agent)
@@ -311,6 +317,13 @@ def train(config: TrainConfig, run_dir: str, *, log: Callable[[str], None] = pri
     elif initial is not None:
         state = with_params(state, initial)
         log(f"Starting from the parameters of {config.init_from}")
+    if over is not None:
+        state = data_parallel.place(state, over)
+
+    def params_now():
+        """The parameters now, on the default device (as the evaluations take them)."""
+        params = _params(state)
+        return params if over is None else placed_as_restored(jax.device_get(params))
     # The best parameters so far, (metadata, params), and whether they await a save;
     # their directory is made at the first save.
     best_dir = os.path.join(run_dir, "best")
@@ -354,7 +367,7 @@ def train(config: TrainConfig, run_dir: str, *, log: Callable[[str], None] = pri
             for step, score in zip(steps, scores):
                 episode_log.write({"step": int(step), "score": float(score)})
             recent = (recent + scores.tolist())[-SCORE_WINDOW:]
-            candidate = _best_candidate_score(agent, state, update, recent)
+            candidate = _best_candidate_score(agent, params_now, update, recent)
             if candidate is not None and (best is None or candidate > best[0]["score"]):
                 best = ({"update": update, "env_steps": env_steps, "score": candidate,
                          "chosen_by": _chosen_by(config)}, jax.device_get(_params(state)))
@@ -410,7 +423,7 @@ def train(config: TrainConfig, run_dir: str, *, log: Callable[[str], None] = pri
 
         if config.eval_episodes and update >= config.total_updates:
             log(f"Evaluating for {config.eval_episodes} episodes")
-            summary = evaluate(_params(state), "eval.json", {"agent_steps": env_steps})
+            summary = evaluate(params_now(), "eval.json", {"agent_steps": env_steps})
             if best is not None and best[0]["update"] != update:
                 log(f"Evaluating the best parameters (update {best[0]['update']}, "
                     f"{_chosen_by(config)} score {best[0]['score']:.2f}) for "
@@ -453,18 +466,42 @@ def best_eval_score(agent: Agent, params: Any, seed: int) -> float:
                            seed=seed + 2).summary["mean"]
 
 
-def _best_candidate_score(agent: Agent, state: Any, update: int,
+def _best_candidate_score(agent: Agent, params: Callable[[], Any], update: int,
                           recent: list[float]) -> float | None:
-    """The score by which the parameters after `update` compete to be the best, or
-    None when they do not: with `best_eval_interval` a periodic evaluation's mean
-    when one is due, without it the mean of the last `SCORE_WINDOW` training episodes
-    `recent` once the window is full."""
+    """The score by which the parameters after `update` (`params()`) compete to be the
+    best, or None when they do not: with `best_eval_interval` a periodic evaluation's
+    mean when one is due, without it the mean of the last `SCORE_WINDOW` training
+    episodes `recent` once the window is full."""
     config = agent.config
     if not config.best_eval_interval:
         return float(np.mean(recent)) if len(recent) == SCORE_WINDOW else None
     if not best_eval_due(config, update):
         return None
-    return best_eval_score(agent, _params(state), config.seed)
+    return best_eval_score(agent, params(), config.seed)
+
+
+def _devices_mesh(config: TrainConfig, devices: int):
+    """The mesh of `devices` local devices a run splits its environments over (None for
+    one device).
+
+    Raises:
+      ValueError: for a count below 1 or above the local devices, a run on the real
+        game, or environments that do not split evenly.
+    """
+    check_positive_int("devices", devices)
+    if devices == 1:
+        return None
+    local = jax.local_devices()
+    if devices > len(local):
+        raise ValueError(f"devices={devices}, but this process has {len(local)} "
+                         f"({local[0].platform}); on a CPU, --devices gives it more")
+    if config.backend != "simulator":
+        raise ValueError(f"devices={devices} needs the simulator backend, not "
+                         f"{config.backend!r}")
+    if config.num_envs % devices:
+        raise ValueError(f"num_envs={config.num_envs} does not split over {devices} "
+                         f"devices; use a multiple of {devices}")
+    return data_parallel.mesh(local[:devices])
 
 
 def _params(state) -> Any:

@@ -3,8 +3,13 @@ FullyConv on MoveToBeacon for a few updates over every device of every process, 
 process 0 writes the parameters.
 
     python data_parallel_worker.py OUT.npz [COORDINATOR NUM_PROCESSES PROCESS_ID]
+    python data_parallel_worker.py OUT.npz --train RUN_DIR
+
+With --train it then trains a run in RUN_DIR with `trainer.train(devices=...)` over
+this process's devices (checkpoints, evaluation), to be resumed on one device.
 """
 
+import dataclasses
 import sys
 
 import jax
@@ -15,10 +20,11 @@ def main(out: str, coordinator: str | None = None, num_processes: str | None = N
          process_id: str | None = None) -> None:
     from sc2jax.experiments.training import data_parallel
 
-    if coordinator is not None:
+    run_dir = num_processes if coordinator == "--train" else None
+    if coordinator is not None and run_dir is None:
         data_parallel.initialize(coordinator, int(num_processes), int(process_id))
     from sc2jax.experiments.training.config import TrainConfig
-    from sc2jax.experiments.training.trainer import build
+    from sc2jax.experiments.training.trainer import build, train
 
     config = TrainConfig(
         map_name="MoveToBeacon", agent="fullyconv", screen_size=16, minimap_size=16,
@@ -37,6 +43,10 @@ def main(out: str, coordinator: str | None = None, num_processes: str | None = N
         np.savez(out, returns=returns, loss=np.asarray(metrics["loss"]),
                  devices=over.size, processes=jax.process_count(),
                  **{f"param{i}": leaf for i, leaf in enumerate(leaves)})
+    if run_dir is not None:
+        result = train(dataclasses.replace(config, total_steps=192, eval_episodes=4),
+                       run_dir, progress=False, devices=over.size)
+        assert result.evaluation["episodes"] == 4
 
 
 if __name__ == "__main__":

@@ -1,6 +1,7 @@
 """Data-parallel training: two processes of one device each (jax.distributed on CPU, a
 localhost coordinator) train as one process with two devices does."""
 
+import dataclasses
 import os
 import pathlib
 import socket
@@ -11,6 +12,8 @@ import numpy as np
 import pytest
 
 from sc2jax.experiments.training import data_parallel
+from sc2jax.experiments.training.config import TrainConfig
+from sc2jax.experiments.training.trainer import run_config, train
 
 WORKER = pathlib.Path(__file__).with_name("data_parallel_worker.py")
 
@@ -38,7 +41,7 @@ def test_two_processes_train_as_one_process_with_two_devices(tmp_path):
     with socket.socket() as s:  # A free port for the coordinator.
         s.bind(("localhost", 0))
         port = s.getsockname()[1]
-    two = _run(tmp_path / "two.npz", devices=2)
+    two = _run(tmp_path / "two.npz", "--train", tmp_path / "run", devices=2)
     _finish(two)
     coordinator = f"localhost:{port}"
     workers = [_run(tmp_path / "hosts.npz", coordinator, 2, i) for i in range(2)]
@@ -49,6 +52,25 @@ def test_two_processes_train_as_one_process_with_two_devices(tmp_path):
     assert all(np.array_equal(a, b) for a, b in zip(p2, ph)) and len(p2) == len(ph) > 10
     np.testing.assert_array_equal(two["loss"], hosts["loss"])
     assert len(set(two["loss"].tolist())) == 3  # Three updates, each its own loss.
+    # A run trained on two devices resumes on one: the same program on any number.
+    config = run_config(str(tmp_path / "run"))
+    assert _steps(tmp_path / "run") == [6] and (tmp_path / "run" / "eval.json").exists()
+    result = train(dataclasses.replace(config, total_steps=384), str(tmp_path / "run"),
+                   progress=False, log=lambda line: None)
+    assert result.evaluation["episodes"] == 4 and _steps(tmp_path / "run")[-1] == 12
+
+
+def _steps(run_dir):
+    return sorted(int(p.name) for p in (run_dir / "checkpoints").iterdir() if p.name.isdigit())
+
+
+def test_train_refuses_devices_it_cannot_use(tmp_path):
+    config = TrainConfig(num_envs=4)
+    with pytest.raises(ValueError, match=r"devices=64, but this process has \d+ \(cpu\)"):
+        train(config, str(tmp_path), devices=64)
+    with pytest.raises(ValueError, match="devices must be a positive int"):
+        train(config, str(tmp_path), devices=0)
+    assert not any(tmp_path.iterdir())  # Refused before any work.
 
 
 def test_initialize_refuses_bad_process_numbers_before_joining():
