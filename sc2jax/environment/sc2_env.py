@@ -25,6 +25,7 @@ from sc2jax.environment.engine.compiled import compiled, simulator
 from sc2jax.environment.engine.minigames import MAPS, check_map
 from sc2jax.environment.engine.simulator import EnvParams, Simulator
 from sc2jax.environment.engine.xla.compilation_cache import use_compilation_cache
+from sc2jax.environment.engine.xla.devices import first_devices
 from sc2jax.environment.interface import specs
 from sc2jax.environment.interface.dense import DenseAction, check_dense_action, to_dense
 from sc2jax.environment.interface.functions import FUNCTIONS, FunctionCall, validate_function_call
@@ -200,11 +201,7 @@ def _devices_for(num_devices: int, num_envs: int) -> tuple[jax.Device, ...]:
         raise ValueError(f"num_devices must be an int in 0..{len(local)} (this process has "
                          f"{len(local)} {local[0].platform} devices; 0: all), got "
                          f"{num_devices!r}")
-    devices = tuple(local[:num_devices or len(local)])
-    if num_envs % len(devices):
-        raise ValueError(f"num_envs={num_envs} does not split evenly over {len(devices)} "
-                         f"devices; use a multiple of {len(devices)}")
-    return devices
+    return first_devices(num_devices or len(local), num_envs)
 
 
 def _check_dense_ranges(action: DenseAction, types) -> None:

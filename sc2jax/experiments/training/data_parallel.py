@@ -22,10 +22,8 @@ import numpy as np
 from jax.experimental import multihost_utils
 from jax.sharding import Mesh, NamedSharding, PartitionSpec
 
+from sc2jax.environment.engine.xla.devices import AXIS
 from sc2jax.experiments.training.compiled_loop import TrainState
-
-AXIS = "envs"
-"""The mesh's one axis: the environments (the batch)."""
 
 
 def initialize(coordinator: str | None = None, num_processes: int | None = None,

@@ -47,6 +47,7 @@ from sc2jax.atomic import write_json_atomic
 from sc2jax.checks import check_positive_int
 from sc2jax.environment.engine.compiled import simulator
 from sc2jax.environment.engine.simulator import Simulator
+from sc2jax.environment.engine.xla.devices import first_devices
 from sc2jax.environment.interface import specs
 from sc2jax.environment.sc2_env import make
 from sc2jax.environment.sc2api.game_env import GameEnvBatch
@@ -491,17 +492,11 @@ def _devices_mesh(config: TrainConfig, devices: int):
     check_positive_int("devices", devices)
     if devices == 1:
         return None
-    local = jax.local_devices()
-    if devices > len(local):
-        raise ValueError(f"devices={devices}, but this process has {len(local)} "
-                         f"({local[0].platform}); on a CPU, --devices gives it more")
+    chosen = first_devices(devices, config.num_envs, "devices")
     if config.backend != "simulator":
         raise ValueError(f"devices={devices} needs the simulator backend, not "
                          f"{config.backend!r}")
-    if config.num_envs % devices:
-        raise ValueError(f"num_envs={config.num_envs} does not split over {devices} "
-                         f"devices; use a multiple of {devices}")
-    return data_parallel.mesh(local[:devices])
+    return data_parallel.mesh(chosen)
 
 
 def _params(state) -> Any:

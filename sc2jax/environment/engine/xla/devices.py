@@ -76,6 +76,24 @@ def over_devices(batched_fn: Callable, devices: Sequence[jax.Device] | None = No
     return run
 
 
+def first_devices(count: int, num_envs: int, name: str = "num_devices") -> tuple:
+    """The first `count` (>= 1) local devices, to split `num_envs` environments over.
+
+    Raises:
+      ValueError: for more devices than this process has (`name` names the setting), or
+        environments that do not split evenly over them.
+    """
+    local = jax.local_devices()
+    if count > len(local):
+        raise ValueError(f"{name}={count}, but this process has {len(local)} "
+                         f"({local[0].platform}); on a CPU, more host devices are made "
+                         f"with `use_cpu_cores`")
+    if num_envs % count:
+        raise ValueError(f"num_envs={num_envs} does not split evenly over {count} "
+                         f"devices; use a multiple of {count}")
+    return tuple(local[:count])
+
+
 def use_cpu_cores(at_least: int = 0) -> None:
     """Gives the CPU platform one host device per core (or `at_least`, if more).
 
