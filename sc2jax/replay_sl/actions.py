@@ -121,8 +121,7 @@ class _Positions:
       at: tag index -> (x, y), for the units standing.
       walks: tag index -> its `_Walk`, for the units walking.
       types: tag index -> its stable unit id now.
-      changes: how many times `at` or `walks` changed (a snapshot is reused while they
-        have not and nobody walks).
+      changes: how many times `at` or `walks` changed.
     """
 
     def __init__(self):
@@ -130,6 +129,7 @@ class _Positions:
         self.walks: dict[int, _Walk] = {}
         self.types: dict[int, int] = {}
         self.changes = 0
+        self._last: tuple[int, UnitPoints] | None = None  # (changes, points) of `points`.
 
     def point(self, index: int, game_loop: int) -> tuple[float, float] | None:
         """A unit's point at `game_loop` (not before the last change), if known."""
@@ -165,6 +165,17 @@ class _Positions:
             self.at[index] = self.walks.pop(index).target
             self.changes += 1
         return now
+
+    def points(self, game_loop: int) -> UnitPoints:
+        """`snapshot` as read-only arrays, the last ones again while nothing has changed
+        and nobody walks."""
+        if self._last is None or self.walks or self._last[0] != self.changes:
+            now = self.snapshot(game_loop)
+            index = np.fromiter(now, np.int64, len(now))
+            xy = np.asarray(list(now.values()), np.float32).reshape(-1, 2)
+            index.flags.writeable = xy.flags.writeable = False
+            self._last = (self.changes, UnitPoints(index, xy))
+        return self._last[1]
 
     def tracker(self, event: dict) -> None:
         kind = event["_event"][len(TRACKER_EVENT):]
@@ -471,21 +482,12 @@ def label_players(replay: Replay, metadata: ReplayMetadata, player_ids=None, *,
     cameras = {u: np.zeros((num_steps, 2), np.float32) for u in labellers}
     selections: dict[int, list[tuple[int, ...]]] = {u: [] for u in labellers}
     unit_points: list[UnitPoints] = []
-    seen = [-1]  # positions.changes at the last snapshot.
 
     def snapshot(until: int) -> None:
         """Records the state at the first loop of every step that starts before `until`."""
         while len(unit_points) < num_steps and len(unit_points) * step_mul < until:
             t = len(unit_points)
-            if not unit_points or positions.walks or positions.changes != seen[0]:
-                now = positions.snapshot(t * step_mul)
-                index = np.fromiter(now, np.int64, len(now))
-                xy = np.asarray(list(now.values()), np.float32).reshape(-1, 2)
-                index.flags.writeable = xy.flags.writeable = False
-                seen[0] = positions.changes
-                unit_points.append(UnitPoints(index, xy))
-            else:  # Nothing moved since the last step: the same (read-only) arrays.
-                unit_points.append(unit_points[-1])
+            unit_points.append(positions.points(t * step_mul))
             for user, labeller in labellers.items():
                 cameras[user][t] = labeller.camera
                 selections[user].append(tuple(labeller.selection))
