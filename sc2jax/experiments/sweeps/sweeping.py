@@ -13,6 +13,13 @@ one compiled program on an accelerator, one run's step after another on CPU
   curves.csv                run, step, recent mean score, one row per run per chunk
   learning_curves.png       every run faint, the best run solid (the paper's Figure 6)
 
+A sweep may be split over several processes or hosts (`part`): each trains a contiguous
+block of the runs in its own sweep directory, ``part<i>of<n>/``, with no traffic between
+them, and the last to finish writes the whole sweep's sweep.json, curves.csv and plot
+from every part's (parts that finish together each write the same files, atomically). A
+part resumes from its own checkpoints, so a sweep resumes after losing a host when it is
+started again with the same number of parts.
+
 A run's score is the mean of its final evaluation (`eval_episodes` episodes) of its
 final parameters, or, with `best_eval_interval`, of its best parameters by periodic
 evaluation (as `train` chooses them; the final parameters' scores are kept too). Without
@@ -23,7 +30,9 @@ single episode score seen.
 
 from __future__ import annotations
 
+import json
 import os
+import re
 import time
 from collections.abc import Callable
 from typing import Any
@@ -32,7 +41,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from sc2jax.atomic import write_json_atomic
+from sc2jax.atomic import atomic_write, write_json_atomic
 from sc2jax.checks import check_positive_int
 from sc2jax.experiments.reporting.metrics_log import CsvLog, read_csv
 from sc2jax.experiments.reporting.plots import plot_learning_curves
@@ -71,7 +80,7 @@ def sample_learning_rates(key: jax.Array, num_runs: int, lr_min: float = 1e-5,
 
 
 def run_sweep(config: TrainConfig, learning_rates, sweep_dir: str, *,
-              log: Callable[[str], None] = print) -> dict:
+              log: Callable[[str], None] = print, part: tuple[int, int] = (0, 1)) -> dict:
     """Trains len(learning_rates) runs together, evaluates each and summarises.
 
     Args:
@@ -79,17 +88,22 @@ def run_sweep(config: TrainConfig, learning_rates, sweep_dir: str, *,
       learning_rates: float[R] the runs' initial learning rates.
       sweep_dir: the sweep's directory; an existing sweep there is resumed.
       log: where status lines go.
+      part: (i, n): train only the i-th of n contiguous blocks of the runs (n <= R), in
+        sweep_dir/part<i>of<n>, as process i of n; the last part to finish writes the
+        whole sweep's summary.
 
     Returns:
-      The summary written to sweep.json: `learning_rates`, per-run `run_scores` and
-      `run_max`, and `mean_over_runs`, `best_run`, `best_mean`, `max` (NaN scores and
-      a `best_run` of None when no run has finished an episode). With
+      The summary written to sweep.json: `learning_rates`, the `runs` it covers, per-run
+      `run_scores` and `run_max`, and `mean_over_runs`, `best_run`, `best_mean`, `max`
+      (NaN scores and a `best_run` of None when no run has finished an episode). With
       `best_eval_interval` also per run `best_eval_scores` and `best_updates` (the
       periodic evaluation that chose its best parameters, and when), and with a final
-      evaluation `final_scores` (its final parameters').
+      evaluation `final_scores` (its final parameters'). Of one part, while other parts
+      are still training: that part's summary, with `complete` False.
 
     Raises:
-      ValueError: for bad learning rates, or a config not on the simulator.
+      ValueError: for bad learning rates, a config not on the simulator, a bad part, or
+        a sweep directory split into another number of parts.
     """
     if config.backend != "simulator":
         raise ValueError(f"a sweep trains its runs together in one compiled program on the "
@@ -99,6 +113,96 @@ def run_sweep(config: TrainConfig, learning_rates, sweep_dir: str, *,
     if rates.ndim != 1 or rates.size < 1 or not (rates > 0).all():
         raise ValueError(f"learning_rates must be a non-empty list of positive rates, got "
                          f"{learning_rates!r}")
+    index, parts = part
+    if not (isinstance(parts, int) and 1 <= parts <= rates.size and 0 <= index < parts):
+        raise ValueError(f"part must be (i, n) with 0 <= i < n <= {rates.size} (the runs), "
+                         f"got {part!r}")
+    if parts == 1:
+        return _sweep(config, rates, np.arange(rates.size), sweep_dir, log)
+    check_run_dir(sweep_dir, config)
+    others = sorted(name for name in (os.listdir(sweep_dir) if os.path.isdir(sweep_dir)
+                                      else ()) if re.fullmatch(r"part\d+of\d+", name)
+                    and not name.endswith(f"of{parts}"))
+    if others:
+        raise ValueError(f"{sweep_dir} was split into other parts ({', '.join(others)}); "
+                         f"resume it with as many processes, or use a new directory")
+    os.makedirs(sweep_dir, exist_ok=True)
+    write_json_atomic(os.path.join(sweep_dir, "config.json"), config.to_json())
+    blocks = np.array_split(np.arange(rates.size), parts)
+    mine = _sweep(config, rates[blocks[index]], blocks[index],
+                  os.path.join(sweep_dir, f"part{index}of{parts}"), log)
+    summaries = [_read_summary(os.path.join(sweep_dir, f"part{i}of{parts}"))
+                 for i in range(parts)]
+    if not all(s is not None and s["agent_steps_per_run"] == mine["agent_steps_per_run"]
+               for s in summaries):
+        log(f"Part {index} of {parts} is done; the last part to finish writes the sweep's "
+            f"summary")
+        return {**mine, "complete": False}
+    return _merge(config, summaries, sweep_dir)
+
+
+def _read_summary(part_dir: str) -> dict | None:
+    """A finished sweep's (or part's) sweep.json; None before it has one."""
+    path = os.path.join(part_dir, "sweep.json")
+    if not os.path.exists(path):
+        return None
+    with open(path) as f:
+        return json.load(f)
+
+
+def _merge(config: TrainConfig, parts: list[dict], sweep_dir: str) -> dict:
+    """The whole sweep's summary, curves and plot from its parts' (in run order)."""
+    joined = {key: [v for p in parts for v in p[key]] for key in parts[0]
+              if key in _PER_RUN}
+    summary = _summary(config, joined.pop("learning_rates"), joined.pop("runs"),
+                       joined.pop("run_scores"), joined.pop("run_max"), joined,
+                       parts[0]["agent_steps_per_run"], max(p["seconds"] for p in parts))
+    write_json_atomic(os.path.join(sweep_dir, "sweep.json"), summary)
+    lines = []
+    for i in range(len(parts)):
+        with open(os.path.join(sweep_dir, f"part{i}of{len(parts)}", "curves.csv")) as f:
+            header, *rows = f.read().splitlines(keepends=True)
+        lines += ([header] if not lines else []) + rows
+    with atomic_write(os.path.join(sweep_dir, "curves.csv")) as f:
+        f.writelines(lines)
+    _plot(config, summary, sweep_dir)
+    return summary
+
+
+_PER_RUN = ("learning_rates", "runs", "run_scores", "run_max", "best_eval_scores",
+            "best_updates", "final_scores")
+"""The summary's entries that hold a value per run."""
+
+
+def _summary(config: TrainConfig, rates, runs, run_scores, run_max, extra: dict,
+             env_steps: int, seconds: float) -> dict:
+    """sweep.json's contents (`run_sweep`) from the runs' ids and per-run results."""
+    scored = np.isfinite(run_scores)  # a run without a finished episode has no score
+    best = int(np.nanargmax(run_scores)) if scored.any() else None
+    return {"learning_rates": list(rates), "runs": list(runs), "run_scores": run_scores,
+            "run_max": run_max,
+            "mean_over_runs": float(np.mean(np.asarray(run_scores)[scored]))
+            if scored.any() else float("nan"), "best_run": None if best is None else runs[best],
+            "best_mean": run_scores[best] if best is not None else float("nan"),
+            "max": float(np.max(run_max)),
+            "agent_steps_per_run": env_steps, "seconds": seconds,
+            **extra, "config": config.to_json()}
+
+
+def _plot(config: TrainConfig, summary: dict, sweep_dir: str) -> None:
+    """learning_curves.png from sweep_dir/curves.csv."""
+    table = read_csv(os.path.join(sweep_dir, "curves.csv"))
+    curves = {f"run {r} (lr {rate:.1e})": (table["step"][table["run"] == r],
+                                           table["score"][table["run"] == r])
+              for r, rate in zip(summary["runs"], summary["learning_rates"])}
+    plot_learning_curves(curves, os.path.join(sweep_dir, "learning_curves.png"),
+                         title=f"{config.agent} on {config.map_name}: {len(curves)} runs")
+
+
+def _sweep(config: TrainConfig, rates: np.ndarray, runs: np.ndarray, sweep_dir: str,
+           log: Callable[[str], None]) -> dict:
+    """Trains the runs `runs` (int[R] their numbers in the sweep, which give their seeds)
+    with `rates` (float32[R]) in `sweep_dir`; `run_sweep`'s summary of them."""
     start = time.time()
     num_runs = int(rates.size)
     check_run_dir(sweep_dir, config)
@@ -106,7 +210,7 @@ def run_sweep(config: TrainConfig, learning_rates, sweep_dir: str, *,
     initial = None if has_checkpoint(sweep_dir) else start_params(agent)
     os.makedirs(sweep_dir, exist_ok=True)
     write_json_atomic(os.path.join(sweep_dir, "config.json"), config.to_json())
-    keys = jax.vmap(jax.random.PRNGKey)(config.seed + jnp.arange(num_runs))
+    keys = jax.vmap(jax.random.PRNGKey)(config.seed + jnp.asarray(runs))
     state = placed_as_restored(jax.vmap(agent.initial_state)(keys, jnp.asarray(rates)))
     update, env_steps = 0, 0
     checkpointer = Checkpointer(os.path.join(sweep_dir, "checkpoints"))
@@ -118,7 +222,7 @@ def run_sweep(config: TrainConfig, learning_rates, sweep_dir: str, *,
         state = with_params(state, jax.tree.map(
             lambda p, x: jnp.broadcast_to(p, x.shape), initial, state.learner.params))
         log(f"Every run starts from the parameters of {config.init_from}")
-    kept = _BestParams(agent, os.path.join(sweep_dir, "best"), state.learner.params)
+    kept = _BestParams(agent, os.path.join(sweep_dir, "best"), state.learner.params, runs)
     curves = CsvLog(os.path.join(sweep_dir, "curves.csv"), ("run", "step", "score", "max"),
                     resume_step=env_steps if update else None)
     recent = [[] for _ in range(num_runs)]
@@ -139,7 +243,7 @@ def run_sweep(config: TrainConfig, learning_rates, sweep_dir: str, *,
                 scores = score[r][ended[r]]
                 recent[r] = (recent[r] + scores.tolist())[-SCORE_WINDOW:]
                 run_max[r] = max(run_max[r], scores.max(initial=-np.inf))
-                curves.write({"run": r, "step": env_steps,
+                curves.write({"run": runs[r], "step": env_steps,
                               "score": float(np.mean(recent[r])) if recent[r] else None,
                               "max": float(run_max[r]) if np.isfinite(run_max[r]) else None})
             if (time.time() - last_save >= config.checkpoint_interval_s
@@ -166,7 +270,7 @@ def run_sweep(config: TrainConfig, learning_rates, sweep_dir: str, *,
             if params is None:
                 continue
             stats = evaluate_params(agent, _run(params, r), config.eval_episodes,
-                                    seed=config.seed + r)
+                                    seed=config.seed + int(runs[r]))
             run_max[-1] = max(run_max[-1], stats.summary["max"])
             if params is state.learner.params:
                 final_scores.append(stats.summary["mean"])
@@ -176,21 +280,10 @@ def run_sweep(config: TrainConfig, learning_rates, sweep_dir: str, *,
         extra = {"best_eval_scores": kept.scores.tolist(), "best_updates": kept.updates.tolist()}
         if final_scores:
             extra["final_scores"] = final_scores
-    scored = np.isfinite(run_scores)  # a run without a finished episode has no score
-    best = int(np.nanargmax(run_scores)) if scored.any() else None
-    summary = {"learning_rates": rates.tolist(), "run_scores": run_scores, "run_max": run_max,
-               "mean_over_runs": float(np.mean(np.asarray(run_scores)[scored]))
-               if scored.any() else float("nan"), "best_run": best,
-               "best_mean": run_scores[best] if best is not None else float("nan"),
-               "max": float(np.max(run_max)),
-               "agent_steps_per_run": env_steps, "seconds": time.time() - start,
-               **extra, "config": config.to_json()}
+    summary = _summary(config, rates.tolist(), runs.tolist(), run_scores, run_max, extra,
+                       env_steps, time.time() - start)
     write_json_atomic(os.path.join(sweep_dir, "sweep.json"), summary)
-    runs = {f"run {r} (lr {rates[r]:.1e})": (table["step"][table["run"] == r],
-                                              table["score"][table["run"] == r])
-            for r in range(num_runs)}
-    plot_learning_curves(runs, os.path.join(sweep_dir, "learning_curves.png"),
-                         title=f"{config.agent} on {config.map_name}: {num_runs} runs")
+    _plot(config, summary, sweep_dir)
     return summary
 
 
@@ -219,8 +312,8 @@ class _BestParams:
       updates: int[R] the updates at which they were evaluated.
     """
 
-    def __init__(self, agent, directory: str, like: Any):
-        self._agent, self._directory = agent, directory
+    def __init__(self, agent, directory: str, like: Any, runs: np.ndarray):
+        self._agent, self._directory, self._runs = agent, directory, runs
         self.params = self.scores = self.updates = None
         self._checkpointer, self._unsaved = None, False
         if agent.config.best_eval_interval and os.path.isdir(directory):
@@ -234,7 +327,8 @@ class _BestParams:
         """Evaluates every run's current parameters and keeps those that beat its best."""
         config = self._agent.config
         runs = jax.tree.leaves(stacked)[0].shape[0]
-        scores = np.array([best_eval_score(self._agent, _run(stacked, r), config.seed + r)
+        scores = np.array([best_eval_score(self._agent, _run(stacked, r),
+                                           config.seed + int(self._runs[r]))
                            for r in range(runs)])
         stacked = jax.device_get(stacked)
         if self.params is None:

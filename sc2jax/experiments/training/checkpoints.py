@@ -20,6 +20,10 @@ the whole step directory and the rename before it returns, so a checkpoint whose
 returned survives an OS crash or power loss too (a crash *during* a save may leave that
 newest step incomplete; the older steps are untouched).
 
+In a run of several processes (`jax.distributed`) every process makes the same
+`Checkpointer` calls: each writes and reads the parts of global arrays that its devices
+hold, and process 0 writes the rest; the directory must be one every process sees.
+
 ``sc2jax.atomic.write_json_atomic`` gives the same all-or-nothing guarantee to single JSON
 files (configs, results).
 """
@@ -65,7 +69,8 @@ def _check_step(step: Any) -> int:
 
 
 def _default_device() -> jax.sharding.Sharding:
-    return jax.sharding.SingleDeviceSharding(jax.devices()[0])
+    """This process's first device (in one process, JAX's default device)."""
+    return jax.sharding.SingleDeviceSharding(jax.local_devices()[0])
 
 
 def placed_as_restored(tree: Any) -> Any:
@@ -79,14 +84,17 @@ def placed_as_restored(tree: Any) -> Any:
 
 
 def _abstract(target: Any) -> Any:
-    """The shape and dtype of every leaf of `target`, placed on the default device."""
-    sharding = _default_device()
+    """The shape and dtype of every leaf of `target`, placed as the leaf is (a jax array,
+    or a `jax.ShapeDtypeStruct` with a sharding: e.g. split over a multi-process mesh,
+    each process reading its own parts), else on this process's first device."""
+    default = _default_device()
 
     def leaf(path, x):
         if not (hasattr(x, "shape") and hasattr(x, "dtype")):
             raise TypeError(f"restore target leaf {jax.tree_util.keystr(path)} is a "
                             f"{type(x).__name__}; allowed: arrays or jax.ShapeDtypeStruct")
-        return jax.ShapeDtypeStruct(x.shape, x.dtype, sharding=sharding)
+        sharding = getattr(x, "sharding", None)
+        return jax.ShapeDtypeStruct(x.shape, x.dtype, sharding=sharding or default)
 
     return jax.tree_util.tree_map_with_path(leaf, target)
 
@@ -172,7 +180,7 @@ class Checkpointer:
 
         Returns:
           `(state, metadata)`: `state` has `target`'s structure, with jax arrays of
-          `target`'s shapes and dtypes on the default device; `metadata` is the dict
+          `target`'s shapes, dtypes and placement (`_abstract`); `metadata` is the dict
           given to `save`.
 
         Raises:

@@ -17,6 +17,7 @@ from absl import flags
 from sc2jax.checks import check_not_a_file
 from sc2jax.environment.engine.xla.compilation_cache import ENV, cache_dir
 from sc2jax.environment.interface.map_names import MINI_GAMES
+from sc2jax.experiments.training import data_parallel
 from sc2jax.experiments.training.config import BACKENDS, TrainConfig, parse_names
 from sc2jax.experiments.training.presets import PRESETS, get_preset
 from sc2jax.networks.factory import NETWORKS
@@ -146,6 +147,40 @@ def define_training() -> None:
                         "(sc2jax.experiments.training.presets).")
     flags.DEFINE_string("run_dir", None, "The run's directory (default: a new temporary one). "
                         "An existing run there is resumed.")
+
+
+def define_processes(coordinator: bool = True) -> None:
+    """Defines --num_processes and --process_id (and with `coordinator`, --coordinator):
+    the processes or hosts a command is split over."""
+    if coordinator:
+        flags.DEFINE_string(
+            "coordinator", None, "host:port of process 0, for a run over several processes "
+            "or hosts (jax.distributed). Once any of --coordinator, --num_processes and "
+            "--process_id is given, every process joins, and those not given are read from "
+            "the cluster's environment (SLURM, Open MPI) as jax.distributed reads them.")
+    flags.DEFINE_integer("num_processes", None, "How many processes (or hosts) the command "
+                         "is split over; every one runs the same command line.", lower_bound=1)
+    flags.DEFINE_integer("process_id", None, "This process's number, 0 .. num_processes-1.",
+                         lower_bound=0)
+
+
+def join_processes() -> None:
+    """Joins this process to the others of a run (`data_parallel.initialize`) when
+    --coordinator, --num_processes or --process_id is given. Call it first, before any
+    JAX work."""
+    given = [FLAGS[name].value for name in ("coordinator", "num_processes", "process_id")]
+    if any(value is not None for value in given):
+        data_parallel.initialize(*given)
+
+
+def sweep_part() -> tuple[int, int]:
+    """(this process's number, the number of processes) a sweep is split over: the flags,
+    else the cluster's environment (`data_parallel.cluster_process`).
+
+    Raises:
+      ValueError: for a process number outside [0, num_processes).
+    """
+    return data_parallel.cluster_process(FLAGS.process_id, FLAGS.num_processes)
 
 
 def field_value(name: str):

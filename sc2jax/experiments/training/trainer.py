@@ -249,7 +249,7 @@ def _compiled_chunks(agent: Agent) -> ChunkRunner:
 
     def run(state, first_step):
         state, metrics, episodes = chunk(state)
-        metrics, episodes = jax.device_get((metrics, episodes))
+        metrics, episodes = data_parallel.gather((metrics, episodes))
         steps, scores = _episode_rows(episodes, first_step, config.steps_per_update,
                                       config.unroll_length)
         return state, metrics, steps, scores
@@ -292,7 +292,11 @@ def train(config: TrainConfig, run_dir: str, *, log: Callable[[str], None] = pri
         `launch_games`; e.g. games already running, or simulator servers).
       devices: how many of this process's devices to split the environments over
         (`data_parallel`; the simulator only). The run is the same program on any
-        number, and its checkpoints resume on any number.
+        number, and its checkpoints resume on any number. In a run of several
+        processes (`data_parallel.initialize` first, on every process) the
+        environments are split over this many devices of every process; every process
+        calls `train` alike, and process 0 alone logs and writes the run's files (the
+        checkpoints are written by all, each its own part).
 
     Returns:
       The `TrainResult`.
@@ -304,27 +308,33 @@ def train(config: TrainConfig, run_dir: str, *, log: Callable[[str], None] = pri
     start = time.time()
     over = _devices_mesh(config, devices)
     check_run_dir(run_dir, config)
+    primary = data_parallel.is_primary()
+    if not primary:
+        log, progress = (lambda line: None), False
     agent = build(config)
     initial = None if has_checkpoint(run_dir) else start_params(agent)
     os.makedirs(run_dir, exist_ok=True)
-    write_json_atomic(os.path.join(run_dir, "config.json"), config.to_json())
+    if primary:
+        write_json_atomic(os.path.join(run_dir, "config.json"), config.to_json())
     state = placed_as_restored(agent.initial(jax.random.PRNGKey(config.seed)))
     checkpointer = Checkpointer(os.path.join(run_dir, "checkpoints"))
     update, env_steps = 0, 0
-    if checkpointer.latest_step() is not None:
-        state, meta = checkpointer.restore(state)
-        update, env_steps = meta["update"], meta["env_steps"]
-        log(f"Resumed from update {update} ({env_steps} agent steps)")
-    elif initial is not None:
+    resuming = checkpointer.latest_step() is not None
+    if not resuming and initial is not None:
         state = with_params(state, initial)
         log(f"Starting from the parameters of {config.init_from}")
     if over is not None:
         state = data_parallel.place(state, over)
+    if resuming:  # Into the state's placement: each process reads its own part.
+        state, meta = checkpointer.restore(state)
+        update, env_steps = meta["update"], meta["env_steps"]
+        log(f"Resumed from update {update} ({env_steps} agent steps)")
 
     def params_now():
-        """The parameters now, on the default device (as the evaluations take them)."""
+        """The parameters now, on this process's first device (as the evaluations take
+        them)."""
         params = _params(state)
-        return params if over is None else placed_as_restored(jax.device_get(params))
+        return params if over is None else placed_as_restored(data_parallel.gather(params))
     # The best parameters so far, (metadata, params), and whether they await a save;
     # their directory is made at the first save.
     best_dir = os.path.join(run_dir, "best")
@@ -334,15 +344,21 @@ def train(config: TrainConfig, run_dir: str, *, log: Callable[[str], None] = pri
         best_checkpointer = Checkpointer(best_dir, max_to_keep=1)
         if best_checkpointer.latest_step() is not None:
             params, meta = best_checkpointer.restore(_params(state))
-            best = (meta, params)
+            best = (meta, data_parallel.gather(params))
     resume = env_steps if update else None
-    metrics_log = CsvLog(os.path.join(run_dir, "metrics.csv"), resume_step=resume)
-    episode_log = CsvLog(os.path.join(run_dir, "episodes.csv"), ("step", "score"),
-                         resume_step=resume)
-    writer = SummaryWriter(os.path.join(run_dir, "tensorboard"))
+    episodes_path = os.path.join(run_dir, "episodes.csv")
+    if primary:
+        metrics_log = CsvLog(os.path.join(run_dir, "metrics.csv"), resume_step=resume)
+        episode_log = CsvLog(episodes_path, ("step", "score"), resume_step=resume)
+        writer = SummaryWriter(os.path.join(run_dir, "tensorboard"))
+    else:
+        metrics_log = episode_log = writer = _Discard()
     bar = Progress(config.total_updates * config.steps_per_update,
                    show=("score", "score_max", "entropy")) if progress else None
-    recent = list(read_csv(episode_log.path)["score"][-SCORE_WINDOW:]) if resume else []
+    recent = []
+    if resume:  # The rows up to the checkpoint (process 0 may not have dropped the rest).
+        table = read_csv(episodes_path)
+        recent = list(table["score"][table["step"] <= env_steps][-SCORE_WINDOW:])
     env = loop = None
     if agent.sim is None:
         env = (games or functools.partial(launch_games, sc2path=sc2path))(config)
@@ -369,9 +385,11 @@ def train(config: TrainConfig, run_dir: str, *, log: Callable[[str], None] = pri
                 episode_log.write({"step": int(step), "score": float(score)})
             recent = (recent + scores.tolist())[-SCORE_WINDOW:]
             candidate = _best_candidate_score(agent, params_now, update, recent)
-            if candidate is not None and (best is None or candidate > best[0]["score"]):
+            if data_parallel.agree(candidate is not None and (
+                    best is None or candidate > best[0]["score"])):
                 best = ({"update": update, "env_steps": env_steps, "score": candidate,
-                         "chosen_by": _chosen_by(config)}, jax.device_get(_params(state)))
+                         "chosen_by": _chosen_by(config)},
+                        data_parallel.gather(_params(state)))
                 best_unsaved = True
             row = {"step": env_steps, "update": update, "wall_time": time.time() - start,
                    "steps_per_s": config.updates_per_chunk * config.steps_per_update
@@ -388,7 +406,7 @@ def train(config: TrainConfig, run_dir: str, *, log: Callable[[str], None] = pri
             if bar is not None:
                 bar.update(env_steps, {"score": row["score"], "score_max": row["score_max"],
                                        "entropy": row["function_entropy"]})
-            if (time.time() - last_save >= config.checkpoint_interval_s
+            if (data_parallel.agree(time.time() - last_save >= config.checkpoint_interval_s)
                     or update >= stop_at):
                 writer.flush()
                 # The best first: a crash between the two saves then resumes from the
@@ -403,8 +421,11 @@ def train(config: TrainConfig, run_dir: str, *, log: Callable[[str], None] = pri
         if loop is not None:
             loop.close()  # The evaluation steps the games next.
             loop = None
-        episode_table = read_csv(episode_log.path)
-        _plot(run_dir, config)
+        episode_log.close()
+        data_parallel.barrier("episodes written")
+        episode_table = read_csv(episodes_path)
+        if primary:
+            _plot(run_dir, config)
         summary = best_summary = None
 
         def evaluate(params, name: str, extra: dict) -> dict:
@@ -417,9 +438,10 @@ def train(config: TrainConfig, run_dir: str, *, log: Callable[[str], None] = pri
                     env, evaluation.host_core(agent.core, params),
                     agent.core.initial_carry(config.num_envs), config.eval_episodes,
                     seed=config.seed + 1)
-            write_json_atomic(os.path.join(run_dir, name),
-                              {**stats.summary, "scores": stats.scores.tolist(), **extra,
-                               "config": config.to_json()})
+            if primary:
+                write_json_atomic(os.path.join(run_dir, name),
+                                  {**stats.summary, "scores": stats.scores.tolist(), **extra,
+                                   "config": config.to_json()})
             return stats.summary
 
         if config.eval_episodes and update >= config.total_updates:
@@ -445,6 +467,14 @@ def train(config: TrainConfig, run_dir: str, *, log: Callable[[str], None] = pri
             best_checkpointer.close()
     return TrainResult(state, episode_table["step"], episode_table["score"], summary,
                        time.time() - start, best_summary)
+
+
+class _Discard:
+    """A log that process 0 keeps, on the other processes of a run: every call does
+    nothing."""
+
+    def __getattr__(self, name: str) -> Callable[..., None]:
+        return lambda *args, **kwargs: None
 
 
 def _chosen_by(config: TrainConfig) -> str:
@@ -482,20 +512,26 @@ def _best_candidate_score(agent: Agent, params: Callable[[], Any], update: int,
 
 
 def _devices_mesh(config: TrainConfig, devices: int):
-    """The mesh of `devices` local devices a run splits its environments over (None for
-    one device).
+    """The mesh a run splits its environments over: `devices` devices of every process
+    (None for one device in one process).
 
     Raises:
-      ValueError: for a count below 1 or above the local devices, a run on the real
-        game, or environments that do not split evenly.
+      ValueError: for a count below 1 or above this process's devices, a run on the
+        real game, or environments that do not split evenly.
     """
     check_positive_int("devices", devices)
-    if devices == 1:
+    processes = jax.process_count()
+    if devices == 1 and processes == 1:
         return None
-    chosen = first_devices(devices, config.num_envs, "devices")
+    first_devices(devices, config.num_envs, "devices")
     if config.backend != "simulator":
-        raise ValueError(f"devices={devices} needs the simulator backend, not "
-                         f"{config.backend!r}")
+        raise ValueError(f"devices={devices} over {processes} processes needs the "
+                         f"simulator backend, not {config.backend!r}")
+    chosen = data_parallel.per_process(devices)
+    if config.num_envs % len(chosen):
+        raise ValueError(f"num_envs={config.num_envs} does not split evenly over the "
+                         f"{len(chosen)} devices of {processes} processes; use a multiple "
+                         f"of {len(chosen)}")
     return data_parallel.mesh(chosen)
 
 
