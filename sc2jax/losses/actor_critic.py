@@ -1,4 +1,4 @@
-"""The paper's A3C loss (§4.1) and its V-trace variant, for one trajectory.
+"""The paper's A3C loss (§4.1), its V-trace variant and PPO, for one trajectory.
 
 The A3C gradient of the paper,
 
@@ -17,6 +17,10 @@ not use contribute nothing. η = 1e-3 by default; β = 0.5.
 With V-trace (Espeholt et al. 2018, via `rlax.vtrace_td_error_and_advantage`) G_t is
 replaced by the V-trace target v_s for the value, and the advantage by
 ρ_t (r_t + discount_t v_{s+1} - v(s_t)), correcting for a behaviour policy that lags.
+
+PPO (Schulman et al. 2017) instead clips the ratio π/μ in a surrogate objective, with
+GAE advantages and value targets computed once per batch and held fixed over several
+passes (`gae_targets`, `ppo_loss`).
 """
 
 from __future__ import annotations
@@ -150,3 +154,58 @@ def vtrace_loss(v_tm1: chex.Array, log_pi_a_tm1: chex.Array, behaviour_log_pi_a_
         function_entropy_tm1, argument_entropy_tm1, argument_used_tm1, entropy_weight,
         entropy_weight if argument_entropy_weight is None else argument_entropy_weight)
     return _combine(log_pi_a_tm1, v_tm1, pg_advantage, target, entropy_loss, value_weight)
+
+
+def gae_targets(v_tm1: chex.Array, r_t: chex.Array, discount_t: chex.Array,
+                bootstrap_value: chex.Numeric, lambda_: float = 0.95
+                ) -> tuple[chex.Array, chex.Array]:
+    """Generalised advantage estimates and value targets of one trajectory (GAE, Schulman
+    et al. 2016), without gradients: what PPO holds fixed over its epochs.
+
+    Args:
+      v_tm1, r_t, discount_t, bootstrap_value: as `a3c_loss` ([T], [T], [T], []).
+      lambda_: GAE's λ (1: the n-step returns of A3C; 0: one-step TD errors).
+
+    Returns:
+      (advantage [T], value target [T] = advantage + v(s_t)).
+    """
+    chex.assert_rank([v_tm1, r_t, discount_t, bootstrap_value], [1, 1, 1, 0])
+    values = jax.lax.stop_gradient(jnp.concatenate([v_tm1, jnp.reshape(bootstrap_value, (1,))]))
+    advantage = rlax.truncated_generalized_advantage_estimation(r_t, discount_t, lambda_,
+                                                                values)
+    return advantage, advantage + values[:-1]
+
+
+def ppo_loss(v_tm1: chex.Array, log_pi_a_tm1: chex.Array, behaviour_log_pi_a_tm1: chex.Array,
+             advantage_tm1: chex.Array, value_target_tm1: chex.Array,
+             function_entropy_tm1: chex.Array, argument_entropy_tm1: chex.Array,
+             argument_used_tm1: chex.Array, *, clip_epsilon: float = 0.2,
+             value_weight: float = 0.5, entropy_weight: float = 1e-3,
+             argument_entropy_weight: float | None = None) -> ActorCriticLossOutput:
+    """PPO's clipped surrogate loss (Schulman et al. 2017) for one trajectory:
+    -mean_t min(ρ_t A_t, clip(ρ_t, 1-ε, 1+ε) A_t) with ρ_t = π(a_t|s_t) / μ(a_t|s_t),
+    plus the value and entropy terms of `a3c_loss`.
+
+    Args:
+      v_tm1, log_pi_a_tm1, function_entropy_tm1, argument_entropy_tm1,
+      argument_used_tm1, value_weight, entropy_weight, argument_entropy_weight: as
+        `a3c_loss`.
+      behaviour_log_pi_a_tm1: [T] log μ(a_t|s_t) of the policy that acted.
+      advantage_tm1, value_target_tm1: [T] fixed before the update (`gae_targets`).
+      clip_epsilon: ε.
+
+    Returns:
+      `ActorCriticLossOutput`.
+    """
+    chex.assert_equal_shape([v_tm1, log_pi_a_tm1, behaviour_log_pi_a_tm1, advantage_tm1,
+                             value_target_tm1, function_entropy_tm1])
+    ratio = jnp.exp(log_pi_a_tm1 - behaviour_log_pi_a_tm1)
+    advantage = jax.lax.stop_gradient(advantage_tm1)
+    target = jax.lax.stop_gradient(value_target_tm1)
+    policy_loss = rlax.clipped_surrogate_pg_loss(ratio, advantage, clip_epsilon)
+    value_loss = jnp.mean(0.5 * jnp.square(target - v_tm1))
+    entropy_loss = entropy_regulariser(
+        function_entropy_tm1, argument_entropy_tm1, argument_used_tm1, entropy_weight,
+        entropy_weight if argument_entropy_weight is None else argument_entropy_weight)
+    return ActorCriticLossOutput(policy_loss + value_weight * value_loss + entropy_loss,
+                                 policy_loss, value_loss, entropy_loss, advantage, target)

@@ -57,7 +57,14 @@ class TrainConfig:
         spatial-argument heads (1: the paper's single rate). Not for "arfullyconv", whose
         spatial heads are part of its autoregressive chain.
       max_grad_norm: global gradient-norm clipping (0: none).
-      off_policy_correction: "none" (A3C's n-step returns) or "vtrace".
+      off_policy_correction: the policy gradient: "none" (A3C's n-step returns),
+        "vtrace", or "ppo" (PPO's clipped surrogate, with GAE advantages fixed per batch
+        and `ppo_epochs` passes over it).
+      ppo_epochs: PPO's passes over each batch.
+      ppo_minibatches: PPO's gradient steps per pass, each on 1/ppo_minibatches of the
+        environments (num_envs must be a multiple).
+      ppo_clip: PPO's ε.
+      gae_lambda: GAE's λ for PPO.
       seed: the run's seed (parameters, environments and actions).
       updates_per_chunk: updates between two host calls (logging).
       checkpoint_interval_s: seconds between checkpoints (one is always written at the end).
@@ -96,6 +103,10 @@ class TrainConfig:
     non_point_rate_scale: float = 1.0
     max_grad_norm: float = 10.0
     off_policy_correction: str = "none"
+    ppo_epochs: int = 4
+    ppo_minibatches: int = 1
+    ppo_clip: float = 0.2
+    gae_lambda: float = 0.95
     seed: int = 0
     updates_per_chunk: int = 10
     checkpoint_interval_s: float = 300.0
@@ -131,8 +142,15 @@ class TrainConfig:
             if value is not None:
                 object.__setattr__(self, name, tuple(value))
         for name in ("step_mul", "num_envs", "unroll_length", "total_steps",
-                     "updates_per_chunk"):
+                     "updates_per_chunk", "ppo_epochs", "ppo_minibatches"):
             check_positive_int(name, getattr(self, name))
+        if self.num_envs % self.ppo_minibatches:
+            raise ValueError(f"num_envs={self.num_envs} does not split into "
+                             f"ppo_minibatches={self.ppo_minibatches}; use a divisor")
+        if not 0.0 < self.ppo_clip < 1.0:
+            raise ValueError(f"ppo_clip must be in (0, 1), got {self.ppo_clip!r}")
+        if not 0.0 <= self.gae_lambda <= 1.0:
+            raise ValueError(f"gae_lambda must be in [0, 1], got {self.gae_lambda!r}")
         for name in ("learning_rate", "rmsprop_epsilon", "non_point_rate_scale",
                      "checkpoint_interval_s"):
             _positive_float(name, getattr(self, name))

@@ -87,7 +87,14 @@ _TABLE = {
     "max_grad_norm": ("max_grad_norm", flags.DEFINE_float,
                       "Global gradient-norm clip (0: none)."),
     "off_policy_correction": ("off_policy_correction", flags.DEFINE_string,
-                              "'none' (n-step A3C) or 'vtrace'."),
+                              "The policy gradient: 'none' (n-step A3C), 'vtrace', or 'ppo' "
+                              "(clipped surrogate, GAE, several passes per batch)."),
+    "ppo_epochs": ("ppo_epochs", flags.DEFINE_integer, "PPO: passes over each batch."),
+    "ppo_minibatches": ("ppo_minibatches", flags.DEFINE_integer,
+                        "PPO: gradient steps per pass, each on that share of the "
+                        "environments."),
+    "ppo_clip": ("ppo_clip", flags.DEFINE_float, "PPO: the ratio's clip ε."),
+    "gae_lambda": ("gae_lambda", flags.DEFINE_float, "PPO: GAE's λ."),
     "seed": ("seed", flags.DEFINE_integer, "Random seed."),
     "updates_per_chunk": ("updates_per_chunk", flags.DEFINE_integer,
                           "Updates between log rows."),

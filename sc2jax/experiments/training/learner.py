@@ -122,7 +122,9 @@ def init_params(network: nn.Module, key: jax.Array, observation: Mapping[str, ja
     return network.init(key, dict(observation))
 
 
-def make_learner(network: nn.Module, loss_fn: LossFn, config: OptimiserConfig) -> Learner:
+def make_learner(network: nn.Module, loss_fn: LossFn, config: OptimiserConfig, *,
+                 prepare: Callable[[Any, Trajectory], Trajectory] | None = None,
+                 epochs: int = 1, minibatches: int = 1) -> Learner:
     """Builds the learner of a network and its loss.
 
     Args:
@@ -130,7 +132,18 @@ def make_learner(network: nn.Module, loss_fn: LossFn, config: OptimiserConfig) -
       loss_fn: `(params, trajectory) -> (loss, metrics)`
         (`losses.make_actor_critic_loss`).
       config: the optimiser settings.
+      prepare: `(params, trajectory) -> trajectory`, run once per update before the
+        gradient steps (PPO's fixed targets, `losses.make_ppo_targets`).
+      epochs: passes over each trajectory batch (PPO's; 1 for A3C and V-trace).
+      minibatches: each pass takes this many gradient steps, each on every
+        `minibatches`-th environment (B must be a multiple; the split is fixed, and
+        keeps each minibatch spread over the devices of a data-parallel run).
+
+    The learning rate's schedule counts updates (batches), not gradient steps; the
+    metrics are the means over the steps of an update.
     """
+    check_positive_int("epochs", epochs)
+    check_positive_int("minibatches", minibatches)
     transforms = [optax.scale_by_rms(decay=config.decay, eps=config.epsilon, eps_in_sqrt=False,
                                      bias_correction=True)]
     if config.max_grad_norm > 0:
@@ -146,18 +159,52 @@ def make_learner(network: nn.Module, loss_fn: LossFn, config: OptimiserConfig) -
         return LearnerState(params, direction.init(params), jnp.int32(0),
                             jnp.asarray(learning_rate, jnp.float32))
 
-    def update(state: LearnerState, trajectory: Trajectory):
-        grad_fn = jax.grad(loss_fn, has_aux=True)
-        grads, metrics = grad_fn(state.params, trajectory)
-        steps, opt_state = direction.update(grads, state.opt_state, state.params)
+    def gradient_step(params, opt_state, rate, batch: Trajectory):
+        grads, metrics = jax.grad(loss_fn, has_aux=True)(params, batch)
+        steps, opt_state = direction.update(grads, opt_state, params)
         if config.non_point_rate_scale != 1.0:
             steps = jax.tree_util.tree_map_with_path(
                 lambda path, s: s if in_point_heads(path) else config.non_point_rate_scale * s,
                 steps)
+        params = optax.apply_updates(params, jax.tree.map(lambda s: -rate * s, steps))
+        return params, opt_state, dict(metrics, grad_norm=optax.tree.norm(grads))
+
+    def update(state: LearnerState, trajectory: Trajectory):
         rate = annealed_learning_rate(state.learning_rate, state.update, config.anneal_updates,
                                       config.warmup_updates)
-        params = optax.apply_updates(state.params, jax.tree.map(lambda s: -rate * s, steps))
-        metrics = dict(metrics, learning_rate=rate, grad_norm=optax.tree.norm(grads))
+        if prepare is not None:
+            trajectory = prepare(state.params, trajectory)
+        if epochs * minibatches == 1:
+            params, opt_state, metrics = gradient_step(state.params, state.opt_state, rate,
+                                                       trajectory)
+        else:
+            def body(carry, index):
+                batch = _minibatch(trajectory, index % minibatches, minibatches)
+                params, opt_state, metrics = gradient_step(*carry, rate, batch)
+                return (params, opt_state), metrics
+
+            # Unrolled: XLA:CPU ran the 4 steps of a rolled loop 9x slower (2.2 s an
+            # update of FullyConv at 16², against 0.25 s).
+            (params, opt_state), metrics = jax.lax.scan(
+                body, (state.params, state.opt_state), jnp.arange(epochs * minibatches),
+                unroll=True)
+            metrics = jax.tree.map(jnp.mean, metrics)
+        metrics = dict(metrics, learning_rate=rate)
         return LearnerState(params, opt_state, state.update + 1, state.learning_rate), metrics
 
     return Learner(init, update)
+
+
+def _minibatch(trajectory: Trajectory, index: jax.Array, count: int) -> Trajectory:
+    """Environments index, index + count, index + 2 count... of a batch: the time-major
+    leaves' axis 1 and the initial carry's axis 0 (B a multiple of `count`)."""
+    def pick(x, axis):
+        shape = x.shape[:axis] + (x.shape[axis] // count, count) + x.shape[axis + 1:]
+        return jax.lax.dynamic_index_in_dim(x.reshape(shape), index, axis + 1,
+                                            keepdims=False)
+
+    carry = trajectory.initial_carry
+    return trajectory._replace(
+        **{name: jax.tree.map(lambda x: pick(x, 1), value)
+           for name, value in trajectory._asdict().items() if name != "initial_carry"},
+        initial_carry=None if carry is None else jax.tree.map(lambda x: pick(x, 0), carry))

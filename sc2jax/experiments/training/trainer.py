@@ -69,7 +69,7 @@ from sc2jax.experiments.training.learner import (
     OptimiserConfig,
     make_learner,
 )
-from sc2jax.losses.learner_loss import make_actor_critic_loss
+from sc2jax.losses.learner_loss import make_actor_critic_loss, make_ppo_targets
 from sc2jax.networks.factory import make_network
 
 SCORE_WINDOW = 100
@@ -166,14 +166,17 @@ def _build(config: TrainConfig) -> Agent:
     network = make_network(config.agent, config.observation_format())
     loss = make_actor_critic_loss(
         network, value_weight=config.value_weight, entropy_weight=config.entropy_weight,
-        off_policy_correction=config.off_policy_correction)
+        off_policy_correction=config.off_policy_correction, clip_epsilon=config.ppo_clip)
+    ppo = config.off_policy_correction == "ppo"
+    passes = dict(prepare=make_ppo_targets(network, config.gae_lambda), epochs=config.ppo_epochs,
+                  minibatches=config.ppo_minibatches) if ppo else {}
     optimiser = OptimiserConfig(decay=config.rmsprop_decay, epsilon=config.rmsprop_epsilon,
                                 max_grad_norm=config.max_grad_norm,
                                 anneal_updates=config.total_updates,
                                 warmup_updates=config.warmup_updates,
                                 non_point_rate_scale=config.non_point_rate_scale)
     return Agent(config, sim, network, actor_core(network, functions=config.functions),
-                 make_learner(network, loss, optimiser))
+                 make_learner(network, loss, optimiser, **passes))
 
 
 @dataclasses.dataclass(frozen=True)

@@ -54,6 +54,10 @@ SWEEP = TrainConfig(**{**PERIODIC.to_json(), "eval_episodes": 2})
     (dict(non_point_rate_scale=0.0), "non_point_rate_scale must be a positive number"),
     (dict(agent="arfullyconv", non_point_rate_scale=0.1), "needs a network with point heads"),
     (dict(backend="sc2", best_eval_interval=5), "best_eval_interval=5 needs backend"),
+    (dict(ppo_epochs=0), "ppo_epochs must be a positive int"),
+    (dict(ppo_minibatches=3), "num_envs=32 does not split into ppo_minibatches=3"),
+    (dict(ppo_clip=1.0), r"ppo_clip must be in \(0, 1\), got 1.0"),
+    (dict(gae_lambda=-0.1), r"gae_lambda must be in \[0, 1\], got -0.1"),
 ])
 def test_config_rejects_bad_values(change, message):
     with pytest.raises(ValueError, match=message):
