@@ -122,7 +122,7 @@ def run_sweep(config: TrainConfig, learning_rates, sweep_dir: str, *,
     check_run_dir(sweep_dir, config)
     others = sorted(name for name in (os.listdir(sweep_dir) if os.path.isdir(sweep_dir)
                                       else ()) if re.fullmatch(r"part\d+of\d+", name)
-                    and not name.endswith(f"of{parts}"))
+                    and not re.fullmatch(rf"part\d+of{parts}", name))
     if others:
         raise ValueError(f"{sweep_dir} was split into other parts ({', '.join(others)}); "
                          f"resume it with as many processes, or use a new directory")

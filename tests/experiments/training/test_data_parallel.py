@@ -130,6 +130,10 @@ def test_sweep_parts_are_checked_before_any_work(tmp_path):
     with pytest.raises(ValueError, match=r"0 <= i < n <= 2 \(the runs\), got \(0, 3\)"):
         sweeping.run_sweep(TrainConfig(), [1e-4, 1e-3], str(tmp_path), part=(0, 3))
     assert not any(tmp_path.iterdir())
+    (tmp_path / "part0of12").mkdir()
+    with pytest.raises(ValueError, match=r"split into other parts \(part0of12\)"):
+        sweeping.run_sweep(TrainConfig(), [1e-4, 1e-3], str(tmp_path), part=(1, 2))
+    assert [p.name for p in tmp_path.iterdir()] == ["part0of12"]
 
 
 def test_process_numbers_come_from_the_flags_or_the_cluster(monkeypatch):
