@@ -30,6 +30,7 @@ from sc2jax.environment.interface.dense import DenseAction
 from sc2jax.experiments.reporting.markdown import write_section
 from sc2jax.losses import Trajectory, make_actor_critic_loss
 from sc2jax.networks import NETWORKS, make_network
+from sc2jax.networks.factory import COMPUTE_DTYPES
 
 SECTION = "## Networks: forward + backward throughput"
 DOC = os.path.join(os.path.dirname(__file__), "..", "..", "docs", "benchmarks.md")
@@ -51,9 +52,9 @@ def param_count(name: str, size: int = 64) -> int:
         jax.eval_shape(net.init, jax.random.key(0), *args)))
 
 
-def _setup(name: str, size: int, t: int, b: int):
+def _setup(name: str, size: int, t: int, b: int, dtype: str = "float32"):
     fmt = ObservationFormat(screen_size=size, minimap_size=size)
-    net = make_network(name, fmt)
+    net = make_network(name, fmt, dtype=dtype)
     spec = observation_spec(fmt, padded=True)
     rng = np.random.default_rng(0)
     obs = {}
@@ -72,9 +73,10 @@ def _setup(name: str, size: int, t: int, b: int):
     return net, args, obs
 
 
-def benchmark(name: str, size: int, t: int, b: int, repeats: int) -> float:
-    """Median samples per second of a jitted A3C gradient."""
-    net, args, obs = _setup(name, size, t, b)
+def benchmark(name: str, size: int, t: int, b: int, repeats: int,
+              dtype: str = "float32") -> float:
+    """Median samples per second of a jitted A3C gradient, computing in `dtype`."""
+    net, args, obs = _setup(name, size, t, b, dtype)
     params = host_init(net, *args)
     action = DenseAction(jnp.zeros((t, b), jnp.int32).at[:, ::2].set(331),  # Move_screen
                          *(jnp.ones((t, b, 2) if i < 3 else (t, b), jnp.int32)
@@ -108,12 +110,16 @@ _RESOLUTIONS = flags.DEFINE_list("resolutions", ["64", "32"], "Screen and minima
 _STEPS = flags.DEFINE_integer("steps", 4, "T, steps per trajectory.")
 _ENVS = flags.DEFINE_integer("envs", 8, "B, environments.")
 _REPEATS = flags.DEFINE_integer("repeats", 5, "Timed calls (the median is reported).")
+_DTYPES = flags.DEFINE_list("dtypes", ["float32"], f"Compute dtypes, of {list(COMPUTE_DTYPES)}; "
+                            "each is a column.")
 _WRITE = flags.DEFINE_bool("write", False, "Update docs/benchmarks.md.")
 
 
 def main(argv: Sequence[str]) -> None:
     del argv
     check_known("network", _NETWORKS.value, NETWORKS)
+    check_known("dtype", _DTYPES.value, COMPUTE_DTYPES)
+    dtypes = _DTYPES.value
     resolutions = positive_ints("resolutions", _RESOLUTIONS.value)
     steps, envs, repeats = _STEPS.value, _ENVS.value, _REPEATS.value
     for name, value in (("steps", steps), ("envs", envs), ("repeats", repeats)):
@@ -121,14 +127,20 @@ def main(argv: Sequence[str]) -> None:
     rows = []
     for name in _NETWORKS.value:
         for size in resolutions:
-            sps = benchmark(name, size, steps, envs, repeats)
-            rows.append((name, size, sps))
-            print(f"{name:15s} {size:3d}x{size:<3d} {sps:9.1f} samples/s", flush=True)
-    table = ["| network | resolution | forward + backward samples/s |", "|---|---|---|"]
-    table += [f"| {n} | {s}x{s} | {v:.1f} |" for n, s, v in rows]
+            rates = []
+            for dtype in dtypes:  # In turn, so that each pair is measured side by side.
+                rates.append(benchmark(name, size, steps, envs, repeats, dtype))
+                print(f"{name:15s} {size:3d}x{size:<3d} {dtype:8s} {rates[-1]:9.1f} "
+                      f"samples/s", flush=True)
+            rows.append((name, size, rates))
+    columns = [f"{d} samples/s" for d in dtypes]
+    table = [f"| network | resolution | {' | '.join(columns)} |",
+             "|---|---|" + "---|" * len(dtypes)]
+    table += [f"| {n} | {s}x{s} | {' | '.join(f'{v:.1f}' for v in r)} |" for n, s, r in rows]
     text = "\n".join([
         SECTION, "",
-        "Command: `python -m sc2jax.experiments.benchmark_networks --write` "
+        f"Command: `python -m sc2jax.experiments.benchmark_networks "
+        f"--dtypes={','.join(dtypes)} --write` "
         f"(T={steps}, B={envs}: {steps * envs} samples per step; "
         f"median of {repeats} timed calls after a warm-up; all 27 screen and 11 "
         "minimap layers; one jitted gradient of the A3C loss).", "",

@@ -21,6 +21,7 @@ for the log-probabilities of a loss); `sample` draws a⁰, then each argument in
 from __future__ import annotations
 
 from collections.abc import Mapping
+from typing import Any
 
 import flax.linen as nn
 import jax
@@ -48,37 +49,44 @@ class ARFullyConv(nn.Module):
       spec: input and output sizes (`NetworkSpec.from_format(fmt)`).
       hidden: units of the fully-connected layer (256).
       embed_dim: D, the size of the action embeddings and the spatial projection.
+      dtype: the computation dtype of every layer (the parameters and outputs stay
+        float32).
     """
 
     spec: NetworkSpec
     hidden: int = 256
     embed_dim: int = 32
+    dtype: Any = jnp.float32
 
     def setup(self):
         sizes = self.spec.argument_sizes
-        self.torso = FullyConvTorso(self.spec)
-        self.fc = nn.Dense(self.hidden)
-        self.value_head = nn.Dense(1)
-        self.function_head = nn.Dense(self.spec.num_functions)
-        self.function_embed = nn.Embed(self.spec.num_functions, self.embed_dim)
-        self.spatial_proj = nn.Conv(self.embed_dim, (1, 1))
+        self.torso = FullyConvTorso(self.spec, self.dtype)
+        self.fc = nn.Dense(self.hidden, dtype=self.dtype)
+        self.value_head = nn.Dense(1, dtype=self.dtype)
+        self.function_head = nn.Dense(self.spec.num_functions, dtype=self.dtype)
+        self.function_embed = nn.Embed(self.spec.num_functions, self.embed_dim, dtype=self.dtype)
+        self.spatial_proj = nn.Conv(self.embed_dim, (1, 1), dtype=self.dtype)
         embeds, heads, conds = [], [], []
         for i, size in enumerate(sizes):
             if len(size) == 2:
-                embeds.append((nn.Embed(size[0], self.embed_dim, name=f"embed_{i}_x"),
-                               nn.Embed(size[1], self.embed_dim, name=f"embed_{i}_y")))
-                heads.append(nn.Conv(1, (1, 1), name=f"arg_{i}"))
+                embeds.append((nn.Embed(size[0], self.embed_dim, dtype=self.dtype,
+                                        name=f"embed_{i}_x"),
+                               nn.Embed(size[1], self.embed_dim, dtype=self.dtype,
+                                        name=f"embed_{i}_y")))
+                heads.append(nn.Conv(1, (1, 1), dtype=self.dtype, name=f"arg_{i}"))
                 conds.append(None)
             else:
-                embeds.append(nn.Embed(size[0], self.embed_dim, name=f"embed_{i}"))
-                heads.append(nn.Dense(size[0], name=f"arg_{i}"))
-                conds.append(nn.Dense(self.hidden, name=f"cond_{i}"))
+                embeds.append(nn.Embed(size[0], self.embed_dim, dtype=self.dtype,
+                                       name=f"embed_{i}"))
+                heads.append(nn.Dense(size[0], dtype=self.dtype, name=f"arg_{i}"))
+                conds.append(nn.Dense(self.hidden, dtype=self.dtype, name=f"cond_{i}"))
         self.arg_embeds, self.arg_heads, self.arg_conds = embeds, heads, conds
 
     def _body(self, obs: Mapping[str, jax.Array]):
         state = self.torso(obs)
         h = nn.relu(self.fc(state.reshape(state.shape[0], -1)))
-        return state, h, self.value_head(h)[:, 0], self.function_head(h)
+        return (state, h, self.value_head(h)[:, 0].astype(jnp.float32),
+                self.function_head(h).astype(jnp.float32))
 
     def _embed(self, i: int, value: jax.Array) -> jax.Array:
         if len(self.spec.argument_sizes[i]) == 2:
@@ -99,6 +107,7 @@ class ARFullyConv(nn.Module):
                 lg = pixel_logits(self.arg_heads[i](nn.relu(p + cond[:, None, None, :])))
             else:
                 lg = self.arg_heads[i](nn.relu(h + self.arg_conds[i](cond)))
+            lg = jax.tree.map(lambda x: x.astype(jnp.float32), lg)
             if given is None:
                 value = zero_unused(argument_sample(noise[i], lg, temperature), used[:, i])
             else:

@@ -14,6 +14,7 @@ from 16 up works (64 -> 16 -> 8; 16 -> 4 -> 2); the non-spatial linear layer has
 from __future__ import annotations
 
 from collections.abc import Mapping
+from typing import Any
 
 import flax.linen as nn
 import jax
@@ -21,7 +22,7 @@ import jax.numpy as jnp
 
 from sc2jax.environment.interface.dense import DenseAction
 from sc2jax.networks.heads import ScalarArgumentHeads, XYHeads
-from sc2jax.networks.outputs import ArgumentLogits, NetworkOutput
+from sc2jax.networks.outputs import ArgumentLogits, NetworkOutput, as_float32
 from sc2jax.networks.preprocessing import SpatialEncoder, nonspatial_features, spatial_inputs
 from sc2jax.networks.spec import NetworkSpec
 
@@ -29,10 +30,14 @@ from sc2jax.networks.spec import NetworkSpec
 class AtariConvStack(nn.Module):
     """Conv 16x8x8/4 -> ReLU -> conv 32x4x4/2 -> ReLU -> flatten: [B, H, W, C] -> [B, D]."""
 
+    dtype: Any = jnp.float32
+
     @nn.compact
     def __call__(self, x: jax.Array) -> jax.Array:
-        x = nn.relu(nn.Conv(16, (8, 8), strides=(4, 4), padding="SAME", name="conv1")(x))
-        x = nn.relu(nn.Conv(32, (4, 4), strides=(2, 2), padding="SAME", name="conv2")(x))
+        x = nn.relu(nn.Conv(16, (8, 8), strides=(4, 4), padding="SAME",
+                            dtype=self.dtype, name="conv1")(x))
+        x = nn.relu(nn.Conv(32, (4, 4), strides=(2, 2), padding="SAME",
+                            dtype=self.dtype, name="conv2")(x))
         return x.reshape(x.shape[0], -1)
 
 
@@ -43,11 +48,14 @@ class AtariNet(nn.Module):
       spec: input and output sizes (`NetworkSpec.from_format(fmt)`).
       nonspatial_features: units of the tanh layer on the non-spatial features.
       hidden: units of the ReLU layer after the concatenation (256 in the paper).
+      dtype: the computation dtype of every layer (the parameters and outputs stay
+        float32).
     """
 
     spec: NetworkSpec
     nonspatial_features: int = 64
     hidden: int = 256
+    dtype: Any = jnp.float32
 
     @nn.compact
     def __call__(self, obs: Mapping[str, jax.Array],
@@ -66,17 +74,19 @@ class AtariNet(nn.Module):
         """
         del action
         screen, minimap = spatial_inputs(self.spec, obs)
-        s = AtariConvStack(name="screen_conv")(
-            SpatialEncoder(self.spec.screen_layers, "feature_screen", name="screen_embed")(screen))
-        m = AtariConvStack(name="minimap_conv")(
-            SpatialEncoder(self.spec.minimap_layers, "feature_minimap",
+        s = AtariConvStack(self.dtype, name="screen_conv")(
+            SpatialEncoder(self.spec.screen_layers, "feature_screen", self.dtype,
+                           name="screen_embed")(screen))
+        m = AtariConvStack(self.dtype, name="minimap_conv")(
+            SpatialEncoder(self.spec.minimap_layers, "feature_minimap", self.dtype,
                            name="minimap_embed")(minimap))
-        ns = jnp.tanh(nn.Dense(self.nonspatial_features, name="nonspatial")(
+        ns = jnp.tanh(nn.Dense(self.nonspatial_features, dtype=self.dtype, name="nonspatial")(
             nonspatial_features(self.spec, obs)))
-        h = nn.relu(nn.Dense(self.hidden, name="fc")(jnp.concatenate([s, m, ns], axis=-1)))
-        args = {**ScalarArgumentHeads(self.spec, name="scalar_heads")(h),
-                **XYHeads(self.spec, name="point_heads")(h)}
-        return NetworkOutput(
-            value=nn.Dense(1, name="value")(h)[:, 0],
-            function_logits=nn.Dense(self.spec.num_functions, name="function")(h),
-            argument_logits=ArgumentLogits(*(args[i] for i in range(len(args)))))
+        h = nn.relu(nn.Dense(self.hidden, dtype=self.dtype, name="fc")(
+            jnp.concatenate([s, m, ns], axis=-1)))
+        args = {**ScalarArgumentHeads(self.spec, self.dtype, name="scalar_heads")(h),
+                **XYHeads(self.spec, self.dtype, name="point_heads")(h)}
+        return as_float32(NetworkOutput(
+            value=nn.Dense(1, dtype=self.dtype, name="value")(h)[:, 0],
+            function_logits=nn.Dense(self.spec.num_functions, dtype=self.dtype, name="function")(h),
+            argument_logits=ArgumentLogits(*(args[i] for i in range(len(args))))))

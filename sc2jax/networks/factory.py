@@ -7,6 +7,7 @@ from typing import Any
 
 import flax.linen as nn
 import jax
+import jax.numpy as jnp
 
 from sc2jax.environment.interface.dense import DenseAction
 from sc2jax.environment.interface.specs import ObservationFormat
@@ -26,10 +27,14 @@ NETWORKS: dict[str, type[nn.Module]] = {
 }
 """The networks by name."""
 
+COMPUTE_DTYPES = ("float32", "bfloat16")
+"""The dtypes a network may compute its layers in (`make_network(dtype=)`); parameters
+and outputs are float32 in both."""
+
 
 def make_network(name: str, fmt: ObservationFormat | NetworkSpec, *,
                  nonspatial_keys: Sequence[str] = DEFAULT_NONSPATIAL_KEYS,
-                 **kwargs: Any) -> nn.Module:
+                 dtype: str = "float32", **kwargs: Any) -> nn.Module:
     """Builds a network, its sizes taken from the environment's specs.
 
     Args:
@@ -38,17 +43,20 @@ def make_network(name: str, fmt: ObservationFormat | NetworkSpec, *,
         padded observation spec and the action spec are derived; or a `NetworkSpec`.
       nonspatial_keys: observation keys for the non-spatial input (ignored for a
         `NetworkSpec`).
+      dtype: the dtype its convolutions and matmuls compute in (`COMPUTE_DTYPES`).
       **kwargs: the network's own attributes (e.g. `hidden=256`, `lstm_features=32`).
 
     Returns:
       An unbound Flax module.
 
     Raises:
-      ValueError: for an unknown name (the message lists the allowed ones).
+      ValueError: for an unknown name or dtype (the message lists the allowed ones).
       TypeError: if `fmt` is neither an `ObservationFormat` nor a `NetworkSpec`.
     """
     if name not in NETWORKS:
         raise ValueError(f"unknown network {name!r}; allowed: {sorted(NETWORKS)}")
+    if dtype not in COMPUTE_DTYPES:
+        raise ValueError(f"unknown compute dtype {dtype!r}; allowed: {list(COMPUTE_DTYPES)}")
     if isinstance(fmt, NetworkSpec):
         spec = fmt
     elif isinstance(fmt, ObservationFormat):
@@ -56,7 +64,7 @@ def make_network(name: str, fmt: ObservationFormat | NetworkSpec, *,
     else:
         raise TypeError(f"fmt must be an ObservationFormat or a NetworkSpec, "
                         f"got {type(fmt).__name__}")
-    return NETWORKS[name](spec, **kwargs)
+    return NETWORKS[name](spec, dtype=jnp.dtype(dtype), **kwargs)
 
 
 def act(network: nn.Module, params: Any, key: jax.Array | None, obs: Mapping[str, jax.Array],

@@ -16,6 +16,7 @@ resizes the state back to the minimap resolution (see `heads`).
 from __future__ import annotations
 
 from collections.abc import Mapping
+from typing import Any
 
 import flax.linen as nn
 import jax
@@ -23,7 +24,7 @@ import jax.numpy as jnp
 
 from sc2jax.environment.interface.dense import DenseAction
 from sc2jax.networks.heads import ConvPointHeads, ScalarArgumentHeads, broadcast_vector, resize
-from sc2jax.networks.outputs import ArgumentLogits, NetworkOutput
+from sc2jax.networks.outputs import ArgumentLogits, NetworkOutput, as_float32
 from sc2jax.networks.preprocessing import SpatialEncoder, nonspatial_features, spatial_inputs
 from sc2jax.networks.spec import NetworkSpec
 
@@ -31,17 +32,20 @@ from sc2jax.networks.spec import NetworkSpec
 class FullyConvStack(nn.Module):
     """Conv 16x5x5 -> ReLU -> conv 32x3x3 -> ReLU, SAME padding, stride 1."""
 
+    dtype: Any = jnp.float32
+
     @nn.compact
     def __call__(self, x: jax.Array) -> jax.Array:
         """Args: x: [B, H, W, C]. Returns: [B, H, W, 32]."""
-        x = nn.relu(nn.Conv(16, (5, 5), padding="SAME", name="conv1")(x))
-        return nn.relu(nn.Conv(32, (3, 3), padding="SAME", name="conv2")(x))
+        x = nn.relu(nn.Conv(16, (5, 5), padding="SAME", dtype=self.dtype, name="conv1")(x))
+        return nn.relu(nn.Conv(32, (3, 3), padding="SAME", dtype=self.dtype, name="conv2")(x))
 
 
 class FullyConvTorso(nn.Module):
     """The state representation of FullyConv: [B, Ys, Xs, 32 + 32 + D_nonspatial]."""
 
     spec: NetworkSpec
+    dtype: Any = jnp.float32
 
     @nn.compact
     def __call__(self, obs: Mapping[str, jax.Array]) -> jax.Array:
@@ -50,13 +54,15 @@ class FullyConvTorso(nn.Module):
         Returns: [B, Ys, Xs, C] at the screen resolution.
         """
         screen, minimap = spatial_inputs(self.spec, obs)
-        s = FullyConvStack(name="screen_conv")(
-            SpatialEncoder(self.spec.screen_layers, "feature_screen", name="screen_embed")(screen))
-        m = FullyConvStack(name="minimap_conv")(
-            SpatialEncoder(self.spec.minimap_layers, "feature_minimap",
+        s = FullyConvStack(self.dtype, name="screen_conv")(
+            SpatialEncoder(self.spec.screen_layers, "feature_screen", self.dtype,
+                           name="screen_embed")(screen))
+        m = FullyConvStack(self.dtype, name="minimap_conv")(
+            SpatialEncoder(self.spec.minimap_layers, "feature_minimap", self.dtype,
                            name="minimap_embed")(minimap))
         m = resize(m, self.spec.screen_size)
-        ns = broadcast_vector(nonspatial_features(self.spec, obs), s.shape[1], s.shape[2])
+        ns = broadcast_vector(nonspatial_features(self.spec, obs).astype(self.dtype),
+                              s.shape[1], s.shape[2])
         return jnp.concatenate([s, m, ns], axis=-1)
 
 
@@ -65,17 +71,19 @@ class FullyConvHeads(nn.Module):
 
     spec: NetworkSpec
     hidden: int = 256
+    dtype: Any = jnp.float32
 
     @nn.compact
     def __call__(self, state: jax.Array) -> NetworkOutput:
         """Args: state: [B, Ys, Xs, C]. Returns: `NetworkOutput` with `PixelLogits`."""
-        h = nn.relu(nn.Dense(self.hidden, name="fc")(state.reshape(state.shape[0], -1)))
-        args = {**ScalarArgumentHeads(self.spec, name="scalar_heads")(h),
-                **ConvPointHeads(self.spec, name="point_heads")(state)}
-        return NetworkOutput(
-            value=nn.Dense(1, name="value")(h)[:, 0],
-            function_logits=nn.Dense(self.spec.num_functions, name="function")(h),
-            argument_logits=ArgumentLogits(*(args[i] for i in range(len(args)))))
+        h = nn.relu(nn.Dense(self.hidden, dtype=self.dtype, name="fc")(
+            state.reshape(state.shape[0], -1)))
+        args = {**ScalarArgumentHeads(self.spec, self.dtype, name="scalar_heads")(h),
+                **ConvPointHeads(self.spec, self.dtype, name="point_heads")(state)}
+        return as_float32(NetworkOutput(
+            value=nn.Dense(1, dtype=self.dtype, name="value")(h)[:, 0],
+            function_logits=nn.Dense(self.spec.num_functions, dtype=self.dtype, name="function")(h),
+            argument_logits=ArgumentLogits(*(args[i] for i in range(len(args))))))
 
 
 class FullyConv(nn.Module):
@@ -84,10 +92,13 @@ class FullyConv(nn.Module):
     Attributes:
       spec: input and output sizes (`NetworkSpec.from_format(fmt)`).
       hidden: units of the fully-connected layer (256 in the paper).
+      dtype: the computation dtype of every layer (`COMPUTE_DTYPES`; the parameters
+        and outputs stay float32).
     """
 
     spec: NetworkSpec
     hidden: int = 256
+    dtype: Any = jnp.float32
 
     @nn.compact
     def __call__(self, obs: Mapping[str, jax.Array],
@@ -104,5 +115,5 @@ class FullyConv(nn.Module):
           for point types (minimap at the minimap resolution), [B, n] for scalar types.
         """
         del action
-        state = FullyConvTorso(self.spec, name="torso")(obs)
-        return FullyConvHeads(self.spec, self.hidden, name="heads")(state)
+        state = FullyConvTorso(self.spec, self.dtype, name="torso")(obs)
+        return FullyConvHeads(self.spec, self.hidden, self.dtype, name="heads")(state)

@@ -14,6 +14,7 @@ ConvLSTM cell runs inside the `scan` over time.
 from __future__ import annotations
 
 from collections.abc import Mapping
+from typing import Any
 
 import flax.linen as nn
 import jax
@@ -29,6 +30,7 @@ class ResettingConvLSTM(nn.Module):
 
     features: int
     kernel_size: int
+    dtype: Any = jnp.float32
 
     @nn.compact
     def __call__(self, carry: LSTMCarry, inputs: tuple[jax.Array, jax.Array]
@@ -41,8 +43,10 @@ class ResettingConvLSTM(nn.Module):
         keep = jnp.logical_not(first.astype(bool))[:, None, None, None]
         carry = (jnp.where(keep, carry.c, 0.0), jnp.where(keep, carry.h, 0.0))
         (c, h), out = nn.ConvLSTMCell(
-            self.features, (self.kernel_size, self.kernel_size), name="cell")(carry, x)
-        return LSTMCarry(c, h), out
+            self.features, (self.kernel_size, self.kernel_size), dtype=self.dtype,
+            name="cell")(carry, x)
+        # The carry stays float32 from step to step, whatever the computation's dtype.
+        return LSTMCarry(c.astype(jnp.float32), h.astype(jnp.float32)), out
 
 
 class FullyConvLSTM(nn.Module):
@@ -53,12 +57,15 @@ class FullyConvLSTM(nn.Module):
       lstm_features: ConvLSTM channels (not given in the paper).
       kernel_size: ConvLSTM kernel size (square, SAME padding).
       hidden: units of the fully-connected layer (256 in the paper).
+      dtype: the computation dtype of every layer (the parameters, the carry and the
+        outputs stay float32).
     """
 
     spec: NetworkSpec
     lstm_features: int = 32
     kernel_size: int = 3
     hidden: int = 256
+    dtype: Any = jnp.float32
 
     def initial_carry(self, batch_size: int) -> LSTMCarry:
         """All-zero carry for `batch_size` environments (no parameters needed)."""
@@ -90,15 +97,15 @@ class FullyConvLSTM(nn.Module):
                 raise ValueError(f"observation[{key!r}] has shape {jnp.shape(value)}; expected "
                                  f"leading dims [T, B] = [{t}, {b}] like `first`")
         flat = {k: jnp.reshape(v, (t * b,) + jnp.shape(v)[2:]) for k, v in obs.items()}
-        state = FullyConvTorso(self.spec, name="torso")(flat)
+        state = FullyConvTorso(self.spec, self.dtype, name="torso")(flat)
         state = state.reshape((t, b) + state.shape[1:])
         # Fully unrolled: XLA's CPU backend runs convolutions (and their gradients) inside
         # a while loop about 40x slower than unrolled, and compiles them slower too.
         scan = nn.scan(ResettingConvLSTM, variable_broadcast="params",
                        split_rngs={"params": False}, in_axes=0, out_axes=0, unroll=True)
-        carry, h = scan(self.lstm_features, self.kernel_size, name="conv_lstm")(
+        carry, h = scan(self.lstm_features, self.kernel_size, self.dtype, name="conv_lstm")(
             carry, (state, first))
-        out = FullyConvHeads(self.spec, self.hidden, name="heads")(
+        out = FullyConvHeads(self.spec, self.hidden, self.dtype, name="heads")(
             h.reshape((t * b,) + h.shape[2:]))
         return carry, jax.tree.map(lambda x: x.reshape((t, b) + x.shape[1:]), out)
 

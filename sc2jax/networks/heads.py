@@ -10,6 +10,8 @@ When the resolutions are equal, no resizing happens.
 
 from __future__ import annotations
 
+from typing import Any
+
 import flax.linen as nn
 import jax
 import jax.numpy as jnp
@@ -40,11 +42,12 @@ class ScalarArgumentHeads(nn.Module):
     """Linear heads for the non-spatial arguments: {type id: logits [B, n]}."""
 
     spec: NetworkSpec
+    dtype: Any = jnp.float32
 
     @nn.compact
     def __call__(self, h: jax.Array) -> dict[int, jax.Array]:
         """Args: h: [B, D]. Returns: {argument type id: [B, n]} for scalar types."""
-        return {i: nn.Dense(sizes[0], name=f"arg_{i}")(h)
+        return {i: nn.Dense(sizes[0], dtype=self.dtype, name=f"arg_{i}")(h)
                 for i, sizes in enumerate(self.spec.argument_sizes) if len(sizes) == 1}
 
 
@@ -52,12 +55,13 @@ class XYHeads(nn.Module):
     """Atari-net's spatial heads: independent linear x and y logits per point type."""
 
     spec: NetworkSpec
+    dtype: Any = jnp.float32
 
     @nn.compact
     def __call__(self, h: jax.Array) -> dict[int, XYLogits]:
         """Args: h: [B, D]. Returns: {point type id: XYLogits([B, X], [B, Y])}."""
-        return {i: XYLogits(nn.Dense(sizes[0], name=f"arg_{i}_x")(h),
-                            nn.Dense(sizes[1], name=f"arg_{i}_y")(h))
+        return {i: XYLogits(nn.Dense(sizes[0], dtype=self.dtype, name=f"arg_{i}_x")(h),
+                            nn.Dense(sizes[1], dtype=self.dtype, name=f"arg_{i}_y")(h))
                 for i, sizes in enumerate(self.spec.argument_sizes) if len(sizes) == 2}
 
 
@@ -76,6 +80,7 @@ class ConvPointHeads(nn.Module):
     """
 
     spec: NetworkSpec
+    dtype: Any = jnp.float32
 
     @nn.compact
     def __call__(self, state: jax.Array) -> dict[int, PixelLogits]:
@@ -86,5 +91,5 @@ class ConvPointHeads(nn.Module):
         out = {}
         for i in self.spec.point_argument_ids:
             x = resize(state, self.spec.argument_sizes[i])
-            out[i] = pixel_logits(nn.Conv(1, (1, 1), name=f"arg_{i}")(x))
+            out[i] = pixel_logits(nn.Conv(1, (1, 1), dtype=self.dtype, name=f"arg_{i}")(x))
         return out

@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping
+from typing import Any
 
 import flax.linen as nn
 import jax
@@ -70,6 +71,7 @@ class SpatialEncoder(nn.Module):
 
     layers: tuple[Feature, ...]
     name_prefix: str = "feature_screen"
+    dtype: Any = jnp.float32
 
     @property
     def out_channels(self) -> int:
@@ -94,12 +96,12 @@ class SpatialEncoder(nn.Module):
             plane = x[..., c]
             if feature.is_categorical:
                 table = nn.Embed(feature.scale, embedding_dim(feature.scale),
-                                 embedding_init=background_zero_init,
+                                 embedding_init=background_zero_init, dtype=self.dtype,
                                  name=f"embed_{feature.name}")
                 # Gather; clipping keeps out-of-range values (none expected) well defined.
                 outs.append(table(jnp.clip(plane, 0, feature.scale - 1)))
             else:
-                outs.append(log_transform(plane)[..., None])
+                outs.append(log_transform(plane)[..., None].astype(self.dtype))
         return jnp.concatenate(outs, axis=-1)
 
 

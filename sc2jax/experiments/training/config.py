@@ -15,7 +15,7 @@ from sc2jax.environment.interface.specs import ObservationFormat
 from sc2jax.environment.sc2api.game_env import Bot
 from sc2jax.experiments.training.actor import function_mask
 from sc2jax.losses.learner_loss import OFF_POLICY_CORRECTIONS
-from sc2jax.networks.factory import NETWORKS
+from sc2jax.networks.factory import COMPUTE_DTYPES, NETWORKS
 
 BACKENDS = ("simulator", "sc2")
 
@@ -65,6 +65,8 @@ class TrainConfig:
         environments (num_envs must be a multiple).
       ppo_clip: PPO's ε.
       gae_lambda: GAE's λ for PPO.
+      compute_dtype: the dtype of the network's convolutions and matmuls: "float32" or
+        "bfloat16" (parameters, gradients and the optimiser stay float32).
       seed: the run's seed (parameters, environments and actions).
       updates_per_chunk: updates between two host calls (logging).
       checkpoint_interval_s: seconds between checkpoints (one is always written at the end).
@@ -107,6 +109,7 @@ class TrainConfig:
     ppo_minibatches: int = 1
     ppo_clip: float = 0.2
     gae_lambda: float = 0.95
+    compute_dtype: str = "float32"
     seed: int = 0
     updates_per_chunk: int = 10
     checkpoint_interval_s: float = 300.0
@@ -149,6 +152,9 @@ class TrainConfig:
                              f"ppo_minibatches={self.ppo_minibatches}; use a divisor")
         if not 0.0 < self.ppo_clip < 1.0:
             raise ValueError(f"ppo_clip must be in (0, 1), got {self.ppo_clip!r}")
+        if self.compute_dtype not in COMPUTE_DTYPES:
+            raise ValueError(f"unknown compute_dtype {self.compute_dtype!r}; allowed: "
+                             f"{list(COMPUTE_DTYPES)}")
         if not 0.0 <= self.gae_lambda <= 1.0:
             raise ValueError(f"gae_lambda must be in [0, 1], got {self.gae_lambda!r}")
         for name in ("learning_rate", "rmsprop_epsilon", "non_point_rate_scale",

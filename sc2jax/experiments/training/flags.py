@@ -95,6 +95,9 @@ _TABLE = {
                         "environments."),
     "ppo_clip": ("ppo_clip", flags.DEFINE_float, "PPO: the ratio's clip ε."),
     "gae_lambda": ("gae_lambda", flags.DEFINE_float, "PPO: GAE's λ."),
+    "compute_dtype": ("compute_dtype", flags.DEFINE_string,
+                      "The network's convolutions and matmuls: 'float32' or 'bfloat16' "
+                      "(parameters and optimiser stay float32)."),
     "seed": ("seed", flags.DEFINE_integer, "Random seed."),
     "updates_per_chunk": ("updates_per_chunk", flags.DEFINE_integer,
                           "Updates between log rows."),

@@ -163,7 +163,8 @@ def build(config: TrainConfig) -> Agent:
 def _build(config: TrainConfig) -> Agent:
     sim = simulator(config.map_name, config.observation_format(), config.step_mul, 0, 1.0,
                     float(config.discount), False) if config.backend == "simulator" else None
-    network = make_network(config.agent, config.observation_format())
+    network = make_network(config.agent, config.observation_format(),
+                           dtype=config.compute_dtype)
     loss = make_actor_critic_loss(
         network, value_weight=config.value_weight, entropy_weight=config.entropy_weight,
         off_policy_correction=config.off_policy_correction, clip_epsilon=config.ppo_clip)
