@@ -140,13 +140,13 @@ def main(argv: Sequence[str]) -> None:
     text = "\n".join([
         SECTION, "",
         f"Command: `python -m sc2jax.experiments.benchmark_networks "
-        f"--dtypes={','.join(dtypes)} --write` "
+        f"--dtypes={','.join(dtypes)} --repeats={repeats} --write` "
         f"(T={steps}, B={envs}: {steps * envs} samples per step; "
         f"median of {repeats} timed calls after a warm-up; all 27 screen and 11 "
         "minimap layers; one jitted gradient of the A3C loss).", "",
         f"Machine: CPU, `nproc` = {os.cpu_count()}, {_cpu_model()}; jax {jax.__version__} "
         f"({jax.default_backend()}). Date: {datetime.date.today().isoformat()}.", "",
-        "GPU: not measured in this session.", "", *table, ""])
+        *table, ""])
     if _WRITE.value:
         write_section(DOC, text)
     print(text)
