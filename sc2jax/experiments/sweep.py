@@ -41,9 +41,6 @@ def main(argv) -> None:
         config = training_flags.config_from_flags()
         rates = sweep_flags.learning_rates_from_flags()
         part = training_flags.sweep_part()
-        if part[1] > 1 and not training_flags.FLAGS.run_dir:
-            raise ValueError(f"a sweep over {part[1]} processes needs --run_dir, a "
-                             f"directory every process sees")
     except ValueError as error:
         sys.exit(f"error: {error}")
     sweep_dir = training_flags.run_dir_or_temporary(config)

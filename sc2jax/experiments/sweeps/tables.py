@@ -70,7 +70,8 @@ def random_policy(config: TrainConfig, episodes: int, path: str) -> dict:
 
 
 def build_table1(config: TrainConfig, maps: Sequence[str], learning_rates, run_dir: str,
-                 random_episodes: int, *, log: Callable[[str], None] = print) -> dict:
+                 random_episodes: int, *, log: Callable[[str], None] = print,
+                 part: tuple[int, int] = (0, 1)) -> dict | None:
     """Runs (or reads) a sweep and the random policy on each map; writes the table.
 
     Args:
@@ -79,10 +80,13 @@ def build_table1(config: TrainConfig, maps: Sequence[str], learning_rates, run_d
       learning_rates: float[R] the runs' rates, the same on every map.
       run_dir: the table's directory: a sweep directory per map, table1.md, table1.json.
       random_episodes: the random policy's episodes per map; 0 leaves it out.
+      part: (i, n): this process trains the i-th of n parts of every map's sweep
+        (`run_sweep`); the last process to finish writes the table.
 
     Returns:
       What table1.json holds: `maps` (per map: the sweep's summary as `run_sweep` returns
-      it, and `random_policy`, a summary or None), `agent`, `learning_rates`.
+      it, and `random_policy`, a summary or None), `agent`, `learning_rates`. None for a
+      process that finished before the others (the table awaits their parts).
 
     Raises:
       ValueError: for a run directory whose config differs, or a bad argument.
@@ -105,28 +109,52 @@ def build_table1(config: TrainConfig, maps: Sequence[str], learning_rates, run_d
                                  f"{saved.tolist()}, not {rates.tolist()}. Use a new "
                                  f"directory.")
     needed = config.total_updates * config.steps_per_update
-    entries = {}
+    sweeps = {}
     for name in maps:
-        map_config = dataclasses.replace(config, map_name=name)
-        sweep_dir = os.path.join(run_dir, name)
         summary = finished.get(name)
         if summary is not None and summary["agent_steps_per_run"] >= needed:
             log(f"{name}: the sweep is done ({summary['agent_steps_per_run']} agent steps per "
                 f"run)")
         else:
-            summary = run_sweep(map_config, rates, sweep_dir, log=log)
+            summary = run_sweep(dataclasses.replace(config, map_name=name), rates,
+                                os.path.join(run_dir, name), log=log, part=part)
+        sweeps[name] = summary
+    for name in maps:  # Parts that other processes trained: merged by the last of them.
+        if not sweeps[name].get("complete", True):
+            merged = _finished_sweep(os.path.join(run_dir, name), needed, rates.size)
+            if merged is None:
+                log(f"{name}: other processes still train their parts; the last to finish "
+                    f"writes the table")
+                return None
+            sweeps[name] = merged
+    entries = {}
+    for name in maps:
+        map_config = dataclasses.replace(config, map_name=name)
+        sweep_dir = os.path.join(run_dir, name)
         random_row = None
         if random_episodes:
             log(f"{name}: the random policy, {random_episodes} episodes")
             random_row = random_policy(map_config, random_episodes,
                                        os.path.join(sweep_dir, "random_policy.json"))
-        entries[name] = {"sweep": summary, "random_policy": random_row}
+        entries[name] = {"sweep": sweeps[name], "random_policy": random_row}
     table = {"agent": config.agent, "learning_rates": rates.tolist(),
              "run_score": run_score_rule(config), "maps": entries}
     write_json_atomic(os.path.join(run_dir, "table1.json"), table)
     with atomic_write(os.path.join(run_dir, "table1.md")) as f:
         f.write(table1_markdown(table))
     return table
+
+
+def _finished_sweep(sweep_dir: str, needed: int, runs: int) -> dict | None:
+    """sweep_dir's sweep.json when it covers `runs` runs of `needed` agent steps."""
+    path = os.path.join(sweep_dir, "sweep.json")
+    if not os.path.exists(path):
+        return None
+    with open(path) as f:
+        summary = json.load(f)
+    if summary["agent_steps_per_run"] < needed or len(summary["run_scores"]) != runs:
+        return None
+    return summary
 
 
 def _number(x, fmt: str) -> str:

@@ -188,9 +188,14 @@ def sweep_part() -> tuple[int, int]:
     else the cluster's environment (`data_parallel.cluster_process`).
 
     Raises:
-      ValueError: for a process number outside [0, num_processes).
+      ValueError: for a process number outside [0, num_processes), or several processes
+        without --run_dir (each would make its own temporary one).
     """
-    return data_parallel.cluster_process(FLAGS.process_id, FLAGS.num_processes)
+    part = data_parallel.cluster_process(FLAGS.process_id, FLAGS.num_processes)
+    if part[1] > 1 and not FLAGS.run_dir:
+        raise ValueError(f"a sweep over {part[1]} processes needs --run_dir, a directory "
+                         f"every process sees")
+    return part
 
 
 def field_value(name: str):

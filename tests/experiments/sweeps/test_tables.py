@@ -74,7 +74,8 @@ def fake_sweeps(monkeypatch):
     finished sweep's config.json and sweep.json."""
     calls = []
 
-    def run_sweep(config, rates, sweep_dir, log):
+    def run_sweep(config, rates, sweep_dir, log, part):
+        assert part == (0, 1)
         calls.append((config.map_name, config.total_steps))
         write_json_atomic(os.path.join(sweep_dir, "config.json"), config.to_json())
         summary = _summary(config.total_updates * config.steps_per_update)
@@ -126,3 +127,21 @@ def test_table_refuses_another_sweep_before_running_anything(tmp_path, fake_swee
     assert fake_sweeps == [("CollectMineralShards", 32)]  # MoveToBeacon never started.
     with pytest.raises(ValueError, match="random_episodes must be >= 0"):
         tables.build_table1(CONFIG, ("MoveToBeacon",), RATES, str(tmp_path), -1)
+
+
+def test_a_table_over_processes_is_written_by_the_last_to_finish(tmp_path, monkeypatch):
+    def run_sweep(config, rates, sweep_dir, log, part):
+        """Part 1 finishes last and merges the sweep; part 0 finds it unmerged."""
+        summary = _summary(config.total_updates * config.steps_per_update)
+        if part == (1, 2):
+            write_json_atomic(os.path.join(sweep_dir, "sweep.json"), summary)
+            return summary
+        return {**summary, "complete": False}
+
+    monkeypatch.setattr(tables, "run_sweep", run_sweep)
+    build = lambda part: tables.build_table1(  # noqa: E731
+        CONFIG, ("MoveToBeacon",), RATES, str(tmp_path), 0, log=lambda _: None, part=part)
+    assert build((0, 2)) is None and not (tmp_path / "table1.json").exists()
+    table = build((1, 2))
+    assert table["maps"]["MoveToBeacon"]["sweep"]["agent_steps_per_run"] == 32
+    assert json.loads((tmp_path / "table1.json").read_text()) == table
