@@ -83,7 +83,7 @@ def test_a_preset_sets_the_config_and_a_given_flag_overrides_it():
             assert "unknown preset 'nope'; allowed" in str(e) and "beacon_quickstart" in str(e)
         else:
             raise AssertionError("no error for an unknown preset")
-        assert len(PRESETS) == 8 and all(p.config.map_name for p in PRESETS.values())
+        assert len(PRESETS) == 9 and all(p.config.map_name for p in PRESETS.values())
         # --network names the architecture; the old --agent and PySC2's names still work.
         for args in (["--network=atari", "--screen_size=32", "--minimap_size=24"],
                      ["--agent=atari", "--feature_screen_size=32",

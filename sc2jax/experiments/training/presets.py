@@ -57,7 +57,20 @@ _PAPER = tuple(
            config=TrainConfig(map_name=map_name))
     for map_name in MINI_GAMES)
 
-PRESETS: dict[str, Preset] = {p.name: p for p in (_QUICKSTART, *_PAPER)}
+_TABLE1_GPU = Preset(
+    name="table1_gpu",
+    description=(
+        "scripts/table1_gpu.py's settings for one GPU: FullyConv with the paper's inputs and "
+        "actions (64x64, every layer, all 573 functions), 128 environments x K = 40, 10M "
+        "agent steps per map, and the split learning rates that trained MoveToBeacon and "
+        "CollectMineralShards best on the CPU (spatial heads 2e-2, the rest 1e-3; "
+        "docs/results.md), the best parameters chosen by evaluation. A first guess: not yet "
+        "run on a GPU."),
+    config=TrainConfig(num_envs=128, unroll_length=40, total_steps=10_000_000,
+                       learning_rate=2e-2, non_point_rate_scale=0.05, best_eval_interval=200,
+                       updates_per_chunk=20))
+
+PRESETS: dict[str, Preset] = {p.name: p for p in (_QUICKSTART, *_PAPER, _TABLE1_GPU)}
 
 
 def get_preset(name: str) -> Preset:
