@@ -7,6 +7,7 @@ import numpy as np
 import pytest
 
 from sc2jax.environment import FUNCTIONS, MAPS, ObservationFormat, make, to_dense
+from sc2jax.experiments.training.actor import LAYER_KEYS
 from tests.environment.helpers import (
     PARAMS,
     SMALL_MAKE,
@@ -48,6 +49,10 @@ def test_episode_structure_and_specs(map_name):
                     "BuildMarines"):  # No defeat: the timer ends.
         assert last == length - 1
         assert game_loops[-1] == sim.game.time_limit_loops
+    # Every value of every layer fits the int16 layers that training trajectories keep.
+    for key in LAYER_KEYS:
+        layers = np.stack([np.asarray(ts.observation[key]) for ts in timesteps])
+        assert np.abs(layers).max() < 2 ** 15, key
     # Every observation conforms to the padded spec.
     spec = sim.observation_spec()
     for obs in (first.observation, timesteps[last].observation,

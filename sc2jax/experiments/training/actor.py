@@ -144,6 +144,19 @@ class EpisodeLog(NamedTuple):
     score: jax.Array
 
 
+LAYER_KEYS = ("feature_screen", "feature_minimap")
+LAYER_DTYPE = jnp.int16
+"""The dtype of the feature layers a trajectory keeps: it holds every layer's values
+exactly (unit type ids, hit points, energy and shields are below 2^15; tested on every
+map), in half the bytes of the simulator's int32."""
+
+
+def stored(observation: dict) -> dict:
+    """An observation as a trajectory keeps it: its feature layers in `LAYER_DTYPE`."""
+    return {k: v.astype(LAYER_DTYPE) if k in LAYER_KEYS else v
+            for k, v in observation.items()}
+
+
 class Unroll(NamedTuple):
     """The compiled actor: `init(key, num_envs) -> ActorState` and
     `unroll(params, state) -> (state, Trajectory [T], EpisodeLog [T])`."""
@@ -182,7 +195,7 @@ def make_unroll(sim: Simulator, core: ActorCore, unroll_length: int) -> Unroll:
         env_state, ts = step(state.env_state, action, state.timestep.observation)
         episode_return = state.episode_return + ts.reward
         last = ts.last()
-        record = dict(observation=obs, first=first, action=action, reward=ts.reward,
+        record = dict(observation=stored(obs), first=first, action=action, reward=ts.reward,
                       discount=ts.discount, log_prob=log_prob,
                       episode=EpisodeLog(last, jnp.where(last, episode_return, 0.0)))
         episode_return = jnp.where(last | ts.first(), 0.0, episode_return)
@@ -193,7 +206,8 @@ def make_unroll(sim: Simulator, core: ActorCore, unroll_length: int) -> Unroll:
         state, rec = jax.lax.scan(lambda s, x: one_step(params, s, x), state, None,
                                   length=unroll_length)
         observation = jax.tree.map(lambda xs, x: jnp.concatenate([xs, x[None]]),
-                                   rec["observation"], core.observe(state.timestep.observation))
+                                   rec["observation"],
+                                   stored(core.observe(state.timestep.observation)))
         first = jnp.concatenate([rec["first"], state.timestep.first()[None]])
         trajectory = Trajectory(observation=observation, action=rec["action"],
                                 reward=rec["reward"], discount=rec["discount"], first=first,

@@ -51,6 +51,7 @@ def test_unroll_emits_a_consistent_trajectory(agent):
     state = _initial_state(agent, 0)
     actor, traj, episodes = jax.jit(unroll.unroll)(state.learner.params, state.actor)
     assert traj.observation["feature_screen"].shape == (k + 1, b, 2, 16, 16)
+    assert traj.observation["feature_minimap"].dtype == jnp.int16  # Half of int32's bytes.
     assert traj.action.function.shape == traj.reward.shape == (k, b)
     assert traj.first.shape == (k + 1, b) and bool(traj.first[0].all())
     assert episodes.ended.shape == (k, b)
