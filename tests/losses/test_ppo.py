@@ -4,6 +4,7 @@ its first pass is A3C's gradient, and the learner's passes and minibatches."""
 import jax
 import jax.numpy as jnp
 import numpy as np
+import pytest
 
 from sc2jax.experiments.training.learner import OptimiserConfig, _minibatch, make_learner
 from sc2jax.losses import (
@@ -67,6 +68,7 @@ def test_ppo_first_pass_at_lambda_one_is_the_a3c_gradient():
         np.testing.assert_allclose(a, b, rtol=2e-4, atol=1e-6)
 
 
+@pytest.mark.slow
 def test_the_learner_takes_epochs_times_minibatches_steps():
     net, params = network("fullyconv_lstm")
     trajectory = _trajectory("fullyconv_lstm")
