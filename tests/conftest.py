@@ -54,13 +54,10 @@ def pytest_unconfigure(config):
         shutil.rmtree(os.environ.pop(_ENV), ignore_errors=True)
 
 
-# Files that each take a worker about a minute or more, longest first (2 cores; the
-# first five measured 2026-11-27; test_dataset (its supervised run 174 s), the two-process
-# tests of test_data_parallel (151 s) and test_cloning (98 s) 2026-11-30, when they ran
-# last and one worker idled while the other finished them).
-_LONGEST_FIRST = ("test_training.py", "test_dataset.py", "test_actor_learner.py",
-                  "test_contract_vmap.py", "test_data_parallel.py", "test_contract.py",
-                  "test_cloning.py", "test_learning.py")
+# Files that each take a worker about a minute or more, longest first (measured on 2
+# cores, 2026-11-27: about 210, 175, 155, 140 and 55 s).
+_LONGEST_FIRST = ("test_training.py", "test_actor_learner.py", "test_contract_vmap.py",
+                  "test_contract.py", "test_learning.py")
 
 
 def pytest_collection_modifyitems(config, items):
