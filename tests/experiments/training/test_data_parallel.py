@@ -11,6 +11,7 @@ import subprocess
 import sys
 import time
 
+import jax
 import numpy as np
 import pytest
 
@@ -96,8 +97,6 @@ def test_two_processes_train_as_one_with_two_devices_and_resume_after_a_kill(tmp
 
 
 def _same(a, b) -> bool:
-    import jax
-
     leaves_a, leaves_b = jax.tree.leaves(a), jax.tree.leaves(b)
     return len(leaves_a) == len(leaves_b) > 10 and all(
         np.array_equal(x, y) for x, y in zip(leaves_a, leaves_b))
