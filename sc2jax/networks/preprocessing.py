@@ -26,6 +26,7 @@ import jax.numpy as jnp
 from flax.linen.linear import default_embed_init
 
 from sc2jax.environment.interface.features import Feature
+from sc2jax.environment.interface.narrow import unpacked
 from sc2jax.networks.spec import NetworkSpec
 
 
@@ -129,12 +130,14 @@ def nonspatial_features(spec: NetworkSpec, obs: Mapping[str, jax.Array]) -> jax.
 
 
 def spatial_inputs(spec: NetworkSpec, obs: Mapping[str, jax.Array]) -> tuple[jax.Array, jax.Array]:
-    """Checks and returns (feature_screen, feature_minimap), each [B, C, y, x]."""
+    """Checks and returns (feature_screen, feature_minimap), each [B, C, y, x], unpacked
+    from bytes where the observation is packed (`environment.interface.narrow`)."""
     for key in ("feature_screen", "feature_minimap", "available_actions_mask"):
         if key not in obs:
             raise ValueError(f"observation has no {key!r}; keys present: {sorted(obs)}")
     (sx, sy), (mx, my) = spec.screen_size, spec.minimap_size
-    screen, minimap = jnp.asarray(obs["feature_screen"]), jnp.asarray(obs["feature_minimap"])
+    screen = unpacked(obs, "feature_screen", spec.screen_layers)
+    minimap = unpacked(obs, "feature_minimap", spec.minimap_layers)
     _check_batched("feature_screen", screen, (len(spec.screen_layers), sy, sx))
     _check_batched("feature_minimap", minimap, (len(spec.minimap_layers), my, mx))
     return screen, minimap

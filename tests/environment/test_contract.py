@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from sc2jax.environment import FUNCTIONS, MAPS, ObservationFormat, make, to_dense
-from sc2jax.experiments.training.actor import LAYER_KEYS
+from sc2jax.environment.interface import narrow
 from tests.environment.helpers import (
     PARAMS,
     SMALL_MAKE,
@@ -49,10 +49,12 @@ def test_episode_structure_and_specs(map_name):
                     "BuildMarines"):  # No defeat: the timer ends.
         assert last == length - 1
         assert game_loops[-1] == sim.game.time_limit_loops
-    # Every value of every layer fits the int16 layers that training trajectories keep.
-    for key in LAYER_KEYS:
+    # Training trajectories keep the layers in bytes (`narrow`): exact on this episode.
+    fmt = sim.fmt
+    for key, features in zip(narrow.LAYER_KEYS, (fmt.screen_layers, fmt.minimap_layers)):
         layers = np.stack([np.asarray(ts.observation[key]) for ts in timesteps])
-        assert np.abs(layers).max() < 2 ** 15, key
+        np.testing.assert_array_equal(narrow.unpack(*narrow.pack(layers, features), features),
+                                      layers, err_msg=key)
     # Every observation conforms to the padded spec.
     spec = sim.observation_spec()
     for obs in (first.observation, timesteps[last].observation,

@@ -13,6 +13,7 @@ import numpy as np
 import pytest
 
 from sc2jax.environment import make
+from sc2jax.environment.interface import narrow
 from sc2jax.environment.sc2api.controller import Controller
 from sc2jax.environment.sc2api.game_env import GameEnv, GameEnvBatch
 from sc2jax.environment.server import Sc2ApiServer
@@ -51,13 +52,16 @@ def test_unroll_emits_a_consistent_trajectory(agent):
     state = _initial_state(agent, 0)
     actor, traj, episodes = jax.jit(unroll.unroll)(state.learner.params, state.actor)
     assert traj.observation["feature_screen"].shape == (k + 1, b, 2, 16, 16)
-    assert traj.observation["feature_minimap"].dtype == jnp.int16  # Half of int32's bytes.
+    assert traj.observation["feature_minimap"].dtype == jnp.uint8  # Packed into bytes.
     assert traj.action.function.shape == traj.reward.shape == (k, b)
     assert traj.first.shape == (k + 1, b) and bool(traj.first[0].all())
     assert episodes.ended.shape == (k, b)
     # The next unroll starts where this one ended.
-    np.testing.assert_array_equal(traj.observation["feature_screen"][-1],
-                                  actor.timestep.observation["feature_screen"])
+    last = jax.tree.map(lambda x: x[-1], traj.observation)
+    for key, layers in zip(narrow.LAYER_KEYS, (agent.sim.fmt.screen_layers,
+                                                agent.sim.fmt.minimap_layers)):
+        np.testing.assert_array_equal(narrow.unpacked(last, key, layers),
+                                      actor.timestep.observation[key])
     # The behaviour log-probability is the network's log-probability of the action.
     out = network_unroll(agent.network, state.learner.params,
                          jax.tree.map(lambda x: x[:k], traj.observation))
