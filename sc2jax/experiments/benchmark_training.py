@@ -10,6 +10,12 @@ The shares are environment = env / step, acting = (unroll - env) / step and lear
 = update / step (they need not sum to 1: XLA fuses the parts differently in the
 whole step). With --write the table replaces the "Training throughput on CPU" (or
 "on GPU") section of docs/benchmarks.md.
+
+With --pipelined it also times one program that acts for the next batch and learns from
+the last one, which do not depend on each other (the actor a policy one update behind,
+as in IMPALA): "pipelined" is the step's time over that program's. Near 1 the hardware
+runs acting and learning one after the other; at most 1 / max(acting + environment,
+learning) if it runs them at once.
 """
 
 from __future__ import annotations
@@ -43,8 +49,8 @@ def _time(fn, *args, repeats: int) -> float:
     return (time.perf_counter() - start) / repeats
 
 
-def measure(config: TrainConfig, repeats: int) -> dict:
-    """Times one config's training step and its parts."""
+def measure(config: TrainConfig, repeats: int, pipelined: bool = False) -> dict:
+    """Times one config's training step and its parts (and the pipelined program)."""
     agent = build(config)
     sim, k = agent.sim, config.unroll_length
     state = agent.initial_state(jax.random.PRNGKey(0))
@@ -73,21 +79,32 @@ def measure(config: TrainConfig, repeats: int) -> dict:
                         repeats=repeats),
         "step": _time(step, state, repeats=repeats),
     }
+    if pipelined:
+        def act_and_learn(learner, actor, last_trajectory):
+            actor, next_trajectory, _ = unroll.unroll(learner.params, actor)
+            return agent.learner.update(learner, last_trajectory), actor, next_trajectory
+
+        times["pipelined"] = _time(jax.jit(act_and_learn), state.learner, state.actor,
+                                   trajectory, repeats=repeats)
     steps = k * config.num_envs
     return {"agent": config.agent, "size": config.screen_size,
             "steps_per_s": steps / times["step"],
             "env": times["env"] / times["step"],
             "acting": max(times["unroll"] - times["env"], 0.0) / times["step"],
-            "learning": times["update"] / times["step"]}
+            "learning": times["update"] / times["step"],
+            **({"pipelined": times["step"] / times["pipelined"]} if pipelined else {})}
 
 
 def table(rows: list[dict], header: str) -> str:
+    extra = "pipelined" in rows[0]
     lines = [header, "",
-             "| network | resolution | agent steps/s | environment | acting | learning |",
-             "|---|---|---|---|---|---|"]
+             "| network | resolution | agent steps/s | environment | acting | learning |"
+             + (" pipelined |" if extra else ""), "|---|---|---|---|---|---|"
+             + ("---|" if extra else "")]
     for r in rows:
         lines.append(f"| {r['agent']} | {r['size']}² | {r['steps_per_s']:,.0f} | "
-                     f"{r['env']:.0%} | {r['acting']:.0%} | {r['learning']:.0%} |")
+                     f"{r['env']:.0%} | {r['acting']:.0%} | {r['learning']:.0%} |"
+                     + (f" {r['pipelined']:.2f} |" if extra else ""))
     return "\n".join(lines)
 
 
@@ -100,6 +117,8 @@ _NUM_ENVS = flags.DEFINE_integer("num_envs", 16, "Environments stepped together.
 _UNROLL = flags.DEFINE_integer("unroll_length", 40, "K, agent steps per update.")
 _MAP = flags.DEFINE_string("map", "MoveToBeacon", "Mini-game.")
 _REPEATS = flags.DEFINE_integer("repeats", 3, "Timed calls per part (after a compiling one).")
+_PIPELINED = flags.DEFINE_bool("pipelined", False,
+                                "Also time acting and learning in one pipelined program.")
 _WRITE = flags.DEFINE_bool("write", False, "Replace the section of docs/benchmarks.md.")
 
 
@@ -113,7 +132,7 @@ def main(argv) -> None:
                for size in sizes for agent in _NETWORKS.value]  # checks every flag first
     rows = []
     for config in configs:
-        rows.append(measure(config, _REPEATS.value))
+        rows.append(measure(config, _REPEATS.value, _PIPELINED.value))
         print(table(rows[-1:], "").strip().splitlines()[-1], flush=True)
     device = jax.devices()[0]
     command = " ".join(["python -m sc2jax.experiments.benchmark_training", *sys.argv[1:]])

@@ -32,6 +32,7 @@ import numpy as np
 
 from sc2jax.atomic import write_json_atomic
 from sc2jax.checks import check_positive_int
+from sc2jax.environment.interface import narrow
 from sc2jax.environment.interface.dense import DenseAction, to_dense
 from sc2jax.environment.interface.dense import zeros as dense_zeros
 from sc2jax.environment.interface.features import MINIMAP_FEATURES, SCREEN_FEATURES
@@ -48,8 +49,9 @@ SHARD_SUFFIX = ".array_record"
 WRITER_OPTIONS = "group_size:1,zstd:3"
 """ArrayRecord's options: one record per chunk (any record read alone), zstd level 3."""
 SPLITS = ("train", "test")
-FORMAT = 2
-"""The records' format (`conversion.json`): 2 is `schema`'s raw bytes (1 was npz)."""
+FORMAT = 3
+"""The records' format (`conversion.json`): 3 is `schema`'s raw bytes with the feature
+layers packed into bytes (2 kept them as uint16; 1 was npz)."""
 
 
 def split_of(sha1: str) -> str:
@@ -106,14 +108,27 @@ class Settings:
 def schema(settings: Settings) -> dict[str, tuple[np.dtype, tuple[int, ...]]]:
     """Each field of a record: name -> (dtype, shape)."""
     screen, minimap = settings.screen_size, settings.minimap_size
-    fields = {"feature_screen": (np.uint16, (len(SCREEN_FEATURES), screen, screen)),
-              "feature_minimap": (np.uint16, (len(MINIMAP_FEATURES), minimap, minimap)),
+    fields = {}
+    for key, features, size in zip(narrow.LAYER_KEYS, (SCREEN_FEATURES, MINIMAP_FEATURES),
+                                   (screen, minimap)):
+        fields[key] = (np.uint8, (len(features), size, size))
+        fields[key + narrow.HIGH_SUFFIX] = (np.uint8, (len(narrow.wide_channels(features)),
+                                                       size, size))
+    fields.update({
               "player": (np.int32, (len(Player),)),
               "available_actions_mask": (np.bool_, (NUM_FUNCTIONS,)),
-              "game_loop": (np.int32, ()), "value": (np.float32, ())}
+              "game_loop": (np.int32, ()), "value": (np.float32, ())})
     for name, example in zip(DenseAction._fields, dense_zeros(())):
         fields[f"action_{name}"] = (np.int32, np.shape(example))
     return {name: (np.dtype(dtype), shape) for name, (dtype, shape) in fields.items()}
+
+
+def packed_layers(observation) -> dict:
+    """A record's layer fields from an observation's int layers (numpy, or jax inside a
+    jitted program): `feature_screen` [27, S, S] and `feature_minimap` [11, M, M], any
+    leading axes, packed into bytes (`narrow.pack_observation`)."""
+    return narrow.pack_observation({key: observation[key] for key in narrow.LAYER_KEYS},
+                                   SCREEN_FEATURES, MINIMAP_FEATURES)
 
 
 def encode(record: dict[str, np.ndarray], fields: dict) -> bytes:

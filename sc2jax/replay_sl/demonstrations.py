@@ -48,6 +48,7 @@ from sc2jax.replay_sl.dataset import (
     Settings,
     dataset_settings,
     encode,
+    packed_layers,
     read_shard,
     read_summary,
     schema,
@@ -102,9 +103,8 @@ def _chunk_fn(sim: Simulator, act: Act):
         state, ts, carry, done = loop
         obs = ts.observation
         carry, action = act(key, carry, obs, ts.first())
-        record = {"feature_screen": obs["feature_screen"].astype(jnp.uint16),
-                  "feature_minimap": obs["feature_minimap"].astype(jnp.uint16),
-                  "player": obs["player"], "available_actions_mask": obs["available_actions_mask"],
+        record = {**packed_layers(obs), "player": obs["player"],
+                  "available_actions_mask": obs["available_actions_mask"],
                   "game_loop": obs["game_loop"][:, 0], "live": ~done,
                   **{f"action_{name}": value for name, value in action._asdict().items()}}
         state, ts = step(state, action, obs)

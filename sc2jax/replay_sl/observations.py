@@ -28,9 +28,11 @@ from __future__ import annotations
 
 import collections
 import dataclasses
+from typing import NamedTuple
 
 import numpy as np
 
+from sc2jax.environment.interface import narrow
 from sc2jax.environment.interface.camera import Camera, Minimap
 from sc2jax.environment.interface.features import (
     DENSITY,
@@ -160,13 +162,51 @@ _SIGHT_HALF_SPAN = np.floor(np.sqrt(SIGHT ** 2 - np.arange(_SIGHT_CELLS + 1) ** 
 _KEY_OFFSET, _KEY_STRIDE = 1 << 20, 1 << 22  # Cells stay far inside (-2^20, 2^21).
 
 
-def _paint(layers: dict[str, np.ndarray], t: np.ndarray, pixels: np.ndarray, radius: float,
-           values: dict[str, np.ndarray]) -> None:
+class _Stack(NamedTuple):
+    """A layer set being drawn, packed into bytes (`narrow`): `low` uint8 [T, C, S, S],
+    `high` uint8 [T, W, S, S] (the wide layers' high bytes) and the set's `features`."""
+
+    low: np.ndarray
+    high: np.ndarray
+    features: tuple
+
+    @classmethod
+    def zeros(cls, features, steps: int, size: int) -> _Stack:
+        wide = len(narrow.wide_channels(features))
+        return cls(np.zeros((steps, len(features), size, size), np.uint8),
+                   np.zeros((steps, wide, size, size), np.uint8), features)
+
+    def set(self, name: str, plane: np.ndarray) -> None:
+        """Layer `name` = `plane` [T, S, S] (below 256 for a narrow layer)."""
+        c = getattr(self.features, name).index
+        wide = narrow.wide_channels(self.features)
+        self.low[:, c] = plane & 0xFF if c in wide else plane
+        if c in wide:
+            self.high[:, wide.index(c)] = plane >> 8
+
+    def put(self, name: str, t: np.ndarray, pixel: np.ndarray, value: np.ndarray) -> None:
+        """Layer `name`[t[n], pixel[n]] = value[n] (pixel: y * S + x), in order, so a
+        later value at the same place wins."""
+        c = getattr(self.features, name).index
+        wide = narrow.wide_channels(self.features)
+        area = self.low.shape[2] * self.low.shape[3]
+        self.low.reshape(-1)[(t * self.low.shape[1] + c) * area + pixel] = (
+            value & 0xFF if c in wide else value)
+        if c in wide:
+            self.high.reshape(-1)[(t * self.high.shape[1] + wide.index(c)) * area + pixel] = (
+                value >> 8)
+
+    def packed(self, key: str) -> dict[str, np.ndarray]:
+        return {key: self.low, key + narrow.HIGH_SUFFIX: self.high}
+
+
+def _paint(stack: _Stack, t: np.ndarray, pixels: np.ndarray, radius: float,
+           values: dict[str, np.ndarray], densities: bool) -> None:
     """Draws discs of `radius` pixels around `pixels` [N, 2] (x, y) of steps `t` [N] into
-    `layers` ([T, S, S] each), later units over earlier ones; the `DENSITY` layers among
-    `layers` count the units covering each pixel. A disc covers the pixels whose centres
-    lie within it, and always the pixel holding its centre."""
-    steps, size = next(iter(layers.values())).shape[:2]
+    the layers `values` names, later units over earlier ones; with `densities`, the
+    `DENSITY` layers count the units covering each pixel. A disc covers the pixels whose
+    centres lie within it, and always the pixel holding its centre."""
+    steps, _, size, _ = stack.low.shape
     r = max(radius, 0.5)
     near = np.all((pixels > -r - 1) & (pixels < size + r + 1), axis=1)  # Off-layer: skip.
     t, pixels = t[near], pixels[near]
@@ -180,13 +220,15 @@ def _paint(layers: dict[str, np.ndarray], t: np.ndarray, pixels: np.ndarray, rad
     keep = (inside | ((ox == 0) & (oy == 0))[None, :]) & (x >= 0) & (x < size) & (y >= 0) & (
         y < size)
     unit = np.broadcast_to(np.arange(len(pixels))[:, None], keep.shape)[keep]
-    flat = ((t[:, None] * size + y) * size + x)[keep]  # In unit order: numpy assigns
-    for name, v in values.items():                    # repeated indices in order.
-        layers[name].reshape(-1)[flat] = v[unit]
-    count = np.bincount(flat, minlength=steps * size * size).reshape(steps, size, size)
-    for name, (multiplier, cap) in DENSITY.items():
-        if name in layers:
-            layers[name] += np.minimum(count * multiplier, cap).astype(layers[name].dtype)
+    step = np.broadcast_to(t[:, None], keep.shape)[keep]
+    pixel = (y * size + x)[keep]  # In unit order: numpy assigns repeated indices in order.
+    for name, v in values.items():
+        stack.put(name, step, pixel, v[unit])
+    if densities:
+        count = np.bincount(step * size * size + pixel,
+                            minlength=steps * size * size).reshape(steps, size, size)
+        for name, (multiplier, cap) in DENSITY.items():
+            stack.set(name, np.minimum(count * multiplier, cap))
 
 
 def render(table: UnitTable, at: UnitsAt, loops: np.ndarray, points: np.ndarray,
@@ -204,7 +246,9 @@ def render(table: UnitTable, at: UnitsAt, loops: np.ndarray, points: np.ndarray,
       view: the map's size, the resolutions and the fog setting.
 
     Returns:
-      {"feature_screen": uint16 [T, 27, S, S], "feature_minimap": uint16 [T, 11, M, M]}.
+      {"feature_screen": uint8 [T, 27, S, S], "feature_screen_high": uint8 [T, 5, S, S],
+       "feature_minimap": uint8 [T, 11, M, M], "feature_minimap_high": uint8 [T, 1, M, M]}:
+      the layers packed into bytes (`environment.interface.narrow`).
     """
     steps = len(loops)
     alive, owners = at.alive, at.owner
@@ -226,21 +270,16 @@ def render(table: UnitTable, at: UnitsAt, loops: np.ndarray, points: np.ndarray,
 
     minimap = Minimap((view.minimap_size,) * 2, view.map_size)
     m = view.minimap_size
-    mini = {name: np.zeros((steps, m, m), np.uint16) for name in values}
+    mini = _Stack.zeros(MINIMAP_FEATURES, steps, m)
     _paint(mini, t, minimap.world_to_pixel(points[t, u]),
-           UNIT_RADIUS * minimap.pixels_per_unit, values)
-    feature_minimap = np.zeros((steps, len(MINIMAP_FEATURES), m, m), np.uint16)
-    for name, layer in mini.items():
-        feature_minimap[:, getattr(MINIMAP_FEATURES, name).index] = layer
+           UNIT_RADIUS * minimap.pixels_per_unit, values, densities=False)
     mxs, mys = minimap.pixel_centers()
     cells = lambda a: np.broadcast_to(np.floor(a).astype(np.int64), (steps, len(a)))  # noqa: E731
-    feature_minimap[:, MINIMAP_FEATURES.visibility_map.index] = 2 * _visible_grid(
-        eyes, cells(mys), cells(mxs), view.map_size)
+    mini.set("visibility_map", 2 * _visible_grid(eyes, cells(mys), cells(mxs), view.map_size))
     screen = Camera((view.screen_size,) * 2)
     half = screen.view_half_extent()
-    feature_minimap[:, MINIMAP_FEATURES.camera.index] = (
-        (np.abs(mxs[None, None, :] - cameras[:, None, None, 0]) <= half[0])
-        & (np.abs(mys[None, :, None] - cameras[:, None, None, 1]) <= half[1]))
+    mini.set("camera", (np.abs(mxs[None, None, :] - cameras[:, None, None, 0]) <= half[0])
+             & (np.abs(mys[None, :, None] - cameras[:, None, None, 1]) <= half[1]))
 
     # A structure under construction: the share of its build time (from its placement to
     # its completion, a constant of its type) that has passed, in percent.
@@ -248,19 +287,16 @@ def render(table: UnitTable, at: UnitsAt, loops: np.ndarray, points: np.ndarray,
     span = np.maximum(table.done[u] - table.born[u], 1)
     progress = np.where(building, (loops[t] - table.born[u]) * 100 // span, 0)
     s = view.screen_size
-    scr = {name: np.zeros((steps, s, s), np.uint16)
-           for name in (*values, "build_progress", *DENSITY)}
+    scr = _Stack.zeros(SCREEN_FEATURES, steps, s)
     centre = np.stack([cameras[t, 0], cameras[t, 1]])  # [2, N]
     _paint(scr, t, screen.world_to_pixel(centre, points[t, u]),
-           UNIT_RADIUS * screen.pixels_per_unit, {**values, "build_progress": progress})
-    feature_screen = np.zeros((steps, len(SCREEN_FEATURES), s, s), np.uint16)
-    for name, layer in scr.items():
-        feature_screen[:, getattr(SCREEN_FEATURES, name).index] = layer
+           UNIT_RADIUS * screen.pixels_per_unit, {**values, "build_progress": progress},
+           densities=True)
     sxs, sys_ = screen.pixel_centers(cameras.T[:, :, None])  # [T, S] each
-    feature_screen[:, SCREEN_FEATURES.visibility_map.index] = 2 * _visible_grid(
+    scr.set("visibility_map", 2 * _visible_grid(
         eyes, np.floor(sys_).astype(np.int64), np.floor(sxs).astype(np.int64),
-        view.map_size)
-    return {"feature_screen": feature_screen, "feature_minimap": feature_minimap}
+        view.map_size))
+    return {**scr.packed("feature_screen"), **mini.packed("feature_minimap")}
 
 
 def _count(at: UnitsAt, player_id: int, names: tuple[str, ...]) -> np.ndarray:
@@ -350,8 +386,8 @@ def observe_steps(table: UnitTable, labels: ActionLabels, player_id: int, view: 
     step's first game loop: the units' known points, the camera and the selection then.
 
     Returns:
-      {"feature_screen": uint16 [T, 27, S, S], "feature_minimap": uint16 [T, 11, M, M],
-       "player": int32 [T, 11], "available_actions_mask": bool [T, 573]} for T = len(steps).
+      `render`'s packed layers, "player": int32 [T, 11] and "available_actions_mask":
+      bool [T, 573], for T = len(steps).
     """
     # One more step than asked: `available_actions` unites a step's and the next's.
     more = range(steps.start, min(steps.stop + 1, len(labels.steps)))
@@ -370,8 +406,9 @@ def observe_steps(table: UnitTable, labels: ActionLabels, player_id: int, view: 
 
 def observe_step(table: UnitTable, labels: ActionLabels, t: int, player_id: int,
                  view: View, cards: CommandCards | None = None) -> dict:
-    """`observe_steps` of step t alone, without the leading axis (the shipped cards by
-    default)."""
+    """`observe_steps` of step t alone, without the leading axis, its layers unpacked
+    (int32 [27, S, S] and [11, M, M]; the shipped cards by default)."""
     obs = observe_steps(table, labels, player_id, view, range(t, t + 1),
                         load_cards() if cards is None else cards)
-    return {name: value[0] for name, value in obs.items()}
+    obs = narrow.unpack_observation(obs, SCREEN_FEATURES, MINIMAP_FEATURES)
+    return {name: np.asarray(value[0]) for name, value in obs.items()}

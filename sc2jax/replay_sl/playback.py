@@ -34,7 +34,7 @@ from sc2jax.environment.sc2api import proto_actions, proto_observation
 from sc2jax.environment.sc2api.controller import Controller, RequestError
 from sc2jax.environment.sc2api.protos import sc2api
 from sc2jax.replay_sl.archive import ReplayError
-from sc2jax.replay_sl.dataset import Settings, convert_replays
+from sc2jax.replay_sl.dataset import Settings, convert_replays, packed_layers
 
 VICTORY = sc2api.Result.Value("Victory")
 _IN_REPLAY, _ENDED = sc2api.Status.Value("in_replay"), sc2api.Status.Value("ended")
@@ -105,9 +105,7 @@ def playback_records(controller: Controller, data: bytes, player_id: int,
                 break
             obs = proto_observation.decode(response, fmt, game.map_name, (home, away), True,
                                            map_size)
-            previous = {"feature_screen": obs["feature_screen"].astype(np.uint16),
-                        "feature_minimap": obs["feature_minimap"].astype(np.uint16),
-                        "player": obs["player"],
+            previous = {**packed_layers(obs), "player": obs["player"],
                         "available_actions_mask": available_mask(obs["available_actions"]),
                         "game_loop": np.int32(obs["game_loop"][0]), "value": won}
             controller.step(settings.step_mul)

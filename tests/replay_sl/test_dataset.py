@@ -92,7 +92,7 @@ def test_a_conversion_resumes_and_an_interrupted_shard_is_not_kept(tmp_path):
 def test_a_dataset_of_another_format_is_refused(tmp_path):
     (tmp_path / "conversion.json").write_text('{"settings": {}, "replays": [], "failed": []}')
     with pytest.raises(ValueError, match="holds records of format None, this sc2jax reads "
-                                         "format 2; convert the replays again"):
+                                         "format 3; convert the replays again"):
         dataset.dataset_settings(tmp_path)
     with pytest.raises(ValueError, match="is not a converted dataset"):
         dataset.dataset_settings(tmp_path / "nowhere")

@@ -11,7 +11,9 @@ import pytest
 
 from sc2jax.environment import make
 from sc2jax.environment.agents import scripted_policy
+from sc2jax.environment.interface import narrow
 from sc2jax.environment.interface.dense import DenseAction
+from sc2jax.environment.interface.features import MINIMAP_FEATURES, SCREEN_FEATURES
 from sc2jax.replay_sl.dataset import dataset_settings, loader, read_shard, schema, shards
 from sc2jax.replay_sl.demonstrations import Recording, batch_keys, record_demonstrations
 
@@ -47,7 +49,9 @@ def test_demonstrations_are_exact_and_resume(tmp_path, beacon):
     state, ts = jax.jit(sim.reset)(batch_keys(RECORDING, 0)[0][0])
     score = 0.0
     for t, record in enumerate(first):
-        np.testing.assert_array_equal(record["feature_screen"], ts.observation["feature_screen"])
+        layers = narrow.unpack_observation(record, SCREEN_FEATURES, MINIMAP_FEATURES)
+        for key in narrow.LAYER_KEYS:
+            np.testing.assert_array_equal(layers[key], ts.observation[key])
         np.testing.assert_array_equal(record["available_actions_mask"],
                                       ts.observation["available_actions_mask"])
         assert record["game_loop"] == ts.observation["game_loop"][0] == 8 * t

@@ -12,7 +12,9 @@ import threading
 import numpy as np
 import pytest
 
+from sc2jax.environment.interface import narrow
 from sc2jax.environment.interface.dense import DenseAction, to_dense
+from sc2jax.environment.interface.features import MINIMAP_FEATURES, SCREEN_FEATURES
 from sc2jax.environment.interface.functions import FUNCTIONS, FunctionCall
 from sc2jax.environment.interface.specs import ObservationFormat
 from sc2jax.environment.sc2api import proto_actions, proto_observation
@@ -79,8 +81,9 @@ def test_a_played_back_replay_gives_the_games_observations_and_calls(tmp_path, c
     assert converted["records"] == len(calls) == 240  # 1,920 loops in steps of 8
     records = list(read_shard(converted["shard"], schema(dataset_settings(out))))
     for t, (record, obs, call) in enumerate(zip(records, observations, calls)):
-        np.testing.assert_array_equal(record["feature_screen"], obs["feature_screen"])
-        np.testing.assert_array_equal(record["feature_minimap"], obs["feature_minimap"])
+        layers = narrow.unpack_observation(record, SCREEN_FEATURES, MINIMAP_FEATURES)
+        for key in narrow.LAYER_KEYS:
+            np.testing.assert_array_equal(layers[key], obs[key])
         np.testing.assert_array_equal(record["player"], obs["player"])
         assert sorted(np.flatnonzero(record["available_actions_mask"])) == sorted(
             obs["available_actions"])

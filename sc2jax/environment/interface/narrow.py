@@ -80,3 +80,12 @@ def unpacked(observation: Mapping, key: str, features: Sequence[Feature]) -> jnp
         return jnp.asarray(observation[key])
     return unpack(jnp.asarray(observation[key]), jnp.asarray(observation[key + HIGH_SUFFIX]),
                   features)
+
+
+def unpack_observation(observation: Mapping, screen: Sequence[Feature],
+                       minimap: Sequence[Feature]) -> dict:
+    """The inverse of `pack_observation`: the layer stacks int32, no high-byte keys."""
+    out = {k: v for k, v in observation.items() if not k.endswith(HIGH_SUFFIX)}
+    for key, features in zip(LAYER_KEYS, (screen, minimap)):
+        out[key] = unpacked(observation, key, features)
+    return out

@@ -93,7 +93,7 @@ class ReplayPlayback(Timeline):
                      panels[MINIMAP_FEATURES.player_relative], panels, values, status)
 
     def _map_picture(self, minimap: np.ndarray) -> np.ndarray:
-        """uint8[W, W, 3]: the whole map from a large minimap's layers (uint16[11, M, M])."""
+        """uint8[W, W, 3]: the whole map from a large minimap's layers (int32[11, M, M])."""
         relative = minimap[MINIMAP_FEATURES.player_relative.index]
         seen = minimap[MINIMAP_FEATURES.visibility_map.index] == Visibility.VISIBLE
         image = np.where(seen[..., None], _SEEN_GROUND, _HIDDEN_GROUND)
