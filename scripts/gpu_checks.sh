@@ -12,7 +12,8 @@
 # Each part has its own time limit and log, so a part that runs out of time or memory
 # costs only itself. Parts, most wanted first:
 #   1. the simulator at 16,384 environments (issue 3's maps and SMAX-3m, 64², every layer);
-#   2. training throughput at 64² (FullyConv and Atari-net, 16 environments, K = 40);
+#   2. training throughput at 64² (FullyConv and Atari-net, 16 environments, K = 40),
+#      and whether acting and learning overlap in one program (--pipelined);
 #   3. the simulator at 1,024 environments (the same maps);
 #   4. (not by default) the other four maps at 16,384 environments.
 # PARTS picks parts by name (default "sim_big train sim_small"; "sim_other" is part 4).
@@ -54,7 +55,7 @@ part() {  # part NAME SECONDS ARGS...: one python run, its output in $OUT/NAME.l
 part sim_big 230 -m sc2jax.experiments.benchmark --maps=$MAPS --num_envs=$BIG --devices=1 \
   --repeats=5 --screen_size=$SIZE --minimap_size=$SIZE
 part train 200 -m sc2jax.experiments.benchmark_training --networks=fullyconv,atari \
-  --sizes=$SIZE --num_envs=$TRAIN_ENVS --repeats=3
+  --sizes=$SIZE --num_envs=$TRAIN_ENVS --repeats=3 --pipelined
 part sim_other 200 -m sc2jax.experiments.benchmark --maps=$OTHER --num_envs=$BIG --devices=1 \
   --repeats=3 --screen_size=$SIZE --minimap_size=$SIZE
 part sim_small 110 -m sc2jax.experiments.benchmark --maps=$MAPS --num_envs=$SMALL \

@@ -13,8 +13,9 @@ instead of int32's 152 (0.29 of them; a stack of narrow layers only, a quarter).
 packing is exact for values in [0, 2^16); the simulator's layers are tested to lie
 there on every map.
 
-Training trajectories keep their layers this way (`pack_observation`); a network reads
-a packed observation directly (`networks.preprocessing.spatial_inputs` unpacks it).
+Training trajectories and replay datasets keep their layers this way
+(`pack_observation`); a network reads a packed observation as it is
+(`networks.preprocessing.spatial_inputs` unpacks it inside the compiled program).
 """
 
 from __future__ import annotations
