@@ -8,12 +8,15 @@ r"""Learning per agent step as the batch grows, and A3C against PPO, at equal ag
         --maps=MoveToBeacon --num_envs_list=16,64,256 --total_steps=200000 --seeds=0,1
 
 Every (map, algorithm, environment count, seed) is one `train` run in
-RUN_DIR/MAP/ALGORITHM_ENVSenvs_seedS: running the script again resumes the unfinished ones
-and skips the finished. The first environment count is the reference: it trains at
---learning_rate, and a run with E environments at --learning_rate x (E / first)^p, with p
-= 1/2 for --rate_scaling=sqrt (the square-root rule for adaptive optimisers, as in
-Hoffer et al. 2017 and Stooke & Abbeel 2018), 1 for linear and 0 for none. K stays fixed,
-so the batch grows with E. PPO runs use --ppo_rate_scale times that rate.
+RUN_DIR/MAP/ALGORITHM_ENVSenvs_kK_seedS: running the script again resumes the unfinished
+ones and skips the finished. The first environment count is the reference, at K =
+--unroll_length and --learning_rate. By default K stays fixed, so the batch grows with
+the E environments, and the rate is --learning_rate x (E / first)^p, with p = 1/2 for
+--rate_scaling=sqrt (the square-root rule for adaptive optimisers, as in Hoffer et al.
+2017 and Stooke & Abbeel 2018), 1 for linear and 0 for none. With --hold_batch, K
+shrinks instead (K x first / E, at least 1): the batch, the rate and the updates per
+agent step stay the reference's, and only the parallelism grows. PPO runs use
+--ppo_rate_scale times the rate.
 
 Each run's row: the mean score of its training episodes over the whole run (the area
 under the learning curve per agent step: what "learning per agent step" compares), over
@@ -48,6 +51,8 @@ _SCALING = flags.DEFINE_enum("rate_scaling", "sqrt", ["sqrt", "linear", "none"],
                              "How the learning rate grows with the environment count.")
 _ALGORITHMS = flags.DEFINE_list("algorithms", ["none", "ppo"],
                                   "off_policy_correction values: none (A3C), vtrace, ppo.")
+_HOLD_BATCH = flags.DEFINE_bool("hold_batch", False,
+                                 "Shrink K as the environments grow, holding the batch.")
 _PPO_RATE = flags.DEFINE_float("ppo_rate_scale", 1.0, "Multiplies PPO runs' learning rate.")
 _SEEDS = flags.DEFINE_list("seeds", ["0", "1", "2"], "Seeds of every setting.")
 flags.adopt_module_key_flags(training_flags)
@@ -56,20 +61,26 @@ FLAGS = flags.FLAGS
 _POWER = {"sqrt": 0.5, "linear": 1.0, "none": 0.0}
 
 
-def settings(config, maps, num_envs, algorithms, seeds, scaling: str, ppo_rate: float):
+def settings(config, maps, num_envs, algorithms, seeds, scaling: str, ppo_rate: float,
+             hold_batch: bool = False):
     """(name, config) of every run: maps x algorithms x environment counts x seeds."""
     runs = []
     for map_name in maps:
         for algorithm in algorithms:
             for envs in num_envs:
-                rate = config.learning_rate * (envs / num_envs[0]) ** _POWER[scaling]
+                if hold_batch:
+                    k = max(1, config.unroll_length * num_envs[0] // envs)
+                    rate = config.learning_rate
+                else:
+                    k = config.unroll_length
+                    rate = config.learning_rate * (envs / num_envs[0]) ** _POWER[scaling]
                 rate *= ppo_rate if algorithm == "ppo" else 1.0
                 for seed in seeds:
-                    runs.append((f"{map_name}/{algorithm}_{envs}envs_seed{seed}",
+                    runs.append((f"{map_name}/{algorithm}_{envs}envs_k{k}_seed{seed}",
                                  dataclasses.replace(
                                      config, map_name=map_name, num_envs=envs,
-                                     learning_rate=rate, off_policy_correction=algorithm,
-                                     seed=seed)))
+                                     unroll_length=k, learning_rate=rate,
+                                     off_policy_correction=algorithm, seed=seed)))
     return runs
 
 
@@ -82,7 +93,8 @@ def row(config, run_dir: str) -> dict:
     with open(os.path.join(run_dir, "eval.json")) as f:
         evaluation = float(json.load(f)["mean"])
     return {"map": config.map_name, "algorithm": config.off_policy_correction,
-            "envs": config.num_envs, "rate": config.learning_rate, "seed": config.seed,
+            "envs": config.num_envs, "k": config.unroll_length,
+            "rate": config.learning_rate, "seed": config.seed,
             "run_mean": float(scores.mean()) if len(scores) else float("nan"),
             "late_mean": float(late.mean()) if len(late) else float("nan"),
             "eval": evaluation}
@@ -90,19 +102,19 @@ def row(config, run_dir: str) -> dict:
 
 def table(rows: list[dict]) -> str:
     """Each setting's mean over its seeds, then every run."""
-    head = ["| map | algorithm | envs | rate | seeds | training mean | last fifth | "
+    head = ["| map | algorithm | envs x K | rate | seeds | training mean | last fifth | "
             "evaluation |", "|---|---|---:|---:|---:|---:|---:|---:|"]
     groups: dict[tuple, list[dict]] = {}
     for r in rows:
-        groups.setdefault((r["map"], r["algorithm"], r["envs"]), []).append(r)
+        groups.setdefault((r["map"], r["algorithm"], r["envs"], r["k"]), []).append(r)
     lines = list(head)
-    for (map_name, algorithm, envs), rs in groups.items():
-        mean = {k: np.mean([r[k] for r in rs]) for k in ("run_mean", "late_mean", "eval")}
-        lines.append(f"| {map_name} | {algorithm} | {envs} | {rs[0]['rate']:.2g} | "
+    for (map_name, algorithm, envs, k), rs in groups.items():
+        mean = {key: np.mean([r[key] for r in rs]) for key in ("run_mean", "late_mean", "eval")}
+        lines.append(f"| {map_name} | {algorithm} | {envs} x {k} | {rs[0]['rate']:.2g} | "
                      f"{len(rs)} | {mean['run_mean']:.2f} | {mean['late_mean']:.2f} | "
                      f"{mean['eval']:.2f} |")
     lines += ["", "Every run:", ""] + [h.replace("seeds", "seed") for h in head]
-    lines += [f"| {r['map']} | {r['algorithm']} | {r['envs']} | {r['rate']:.2g} | "
+    lines += [f"| {r['map']} | {r['algorithm']} | {r['envs']} x {r['k']} | {r['rate']:.2g} | "
               f"{r['seed']} | {r['run_mean']:.2f} | {r['late_mean']:.2f} | {r['eval']:.2f} |"
               for r in rows]
     return "\n".join(lines) + "\n"
@@ -121,7 +133,7 @@ def main(argv) -> None:
         algorithms = _ALGORITHMS.value
         config = training_flags.config_from_flags()
         runs = settings(config, maps, num_envs, algorithms, seeds, _SCALING.value,
-                        _PPO_RATE.value)  # every config is checked before any trains
+                        _PPO_RATE.value, _HOLD_BATCH.value)  # each config checked first
     except ValueError as error:
         sys.exit(f"error: {error}")
     if config.eval_episodes < 1:
