@@ -123,9 +123,8 @@ def table(rows: list[dict]) -> str:
 def main(argv) -> None:
     del argv
     training_flags.start_command()
-    if FLAGS["map"].present or FLAGS["num_envs"].present or FLAGS["seed"].present:
-        sys.exit("error: batch_scaling takes --maps, --num_envs_list and --seeds, not "
-                 "--map, --num_envs or --seed")
+    training_flags.refuse("batch_scaling", {"map": "--maps", "num_envs": "--num_envs_list",
+                                            "seed": "--seeds"})
     try:
         maps = parse_maps(_MAPS.value)
         num_envs = positive_ints("num_envs_list", _NUM_ENVS.value)

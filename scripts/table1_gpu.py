@@ -64,8 +64,7 @@ def run_map(config, run_dir: str) -> dict:
 def main(argv) -> None:
     del argv
     training_flags.start_command()
-    if FLAGS["map"].present:
-        sys.exit("error: table1_gpu takes --maps (comma-separated, or 'all'), not --map")
+    training_flags.refuse("table1_gpu", {"map": "--maps (comma-separated, or 'all')"})
     if not FLAGS["preset"].present:
         FLAGS.preset = "table1_gpu"
     try:

@@ -129,6 +129,8 @@ def test_every_command_starts(command):
      "unknown function 'Move_scren'; give PySC2 names or ids 0..572; did you mean "
      "Move_screen"),
     (["sc2jax.experiments.train_replays", "--dataset=FILE"], "is not a converted dataset"),
+    (["sc2jax.experiments.table1", "--map=MoveToBeacon"],
+     "error: table1 takes --maps (comma-separated, or 'all'), not --map"),
 ])
 def test_bad_flags_give_one_line_errors(tmp_path, args, message):
     a_file = tmp_path / "a_file"

@@ -42,8 +42,7 @@ flags.adopt_module_key_flags(sweep_flags)
 def main(argv) -> None:
     del argv
     training_flags.start_command()
-    if FLAGS["map"].present:
-        sys.exit("error: table1 takes --maps (comma-separated, or 'all'), not --map")
+    training_flags.refuse("table1", {"map": "--maps (comma-separated, or 'all')"})
     try:
         maps = parse_maps(_MAPS.value)
         config = dataclasses.replace(training_flags.config_from_flags(), map_name=maps[0])

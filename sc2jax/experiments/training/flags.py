@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import dataclasses
 import logging
+import sys
 import tempfile
 
 import jax
@@ -216,6 +217,15 @@ def config_from_flags() -> TrainConfig:
                if _TABLE[name][0] and (FLAGS[name].present or not FLAGS.preset)}
     check_not_a_file("--run_dir", FLAGS["run_dir"].value if "run_dir" in FLAGS else None)
     return dataclasses.replace(base, **changes)
+
+
+def refuse(command: str, replaced: dict[str, str]) -> None:
+    """Exits with an error naming the flags a command takes instead of the shared flags
+    it replaces (`replaced`: flag -> its replacement), if any of them is given."""
+    given = [name for name in replaced if FLAGS[name].present]
+    if given:
+        sys.exit(f"error: {command} takes {', '.join(replaced[n] for n in given)}, not "
+                 f"{', '.join('--' + n for n in given)}")
 
 
 def run_dir_or_temporary(config: TrainConfig) -> str:
