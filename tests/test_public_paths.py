@@ -33,6 +33,25 @@ def test_the_public_names_import():
     assert out.returncode == 0 and out.stdout.strip() == "ok", out.stderr[-2000:]
 
 
+def test_an_empty_compilation_cache_flag_turns_the_cache_off_everywhere():
+    out = _run("""
+        import os
+        os.environ.pop("JAX_COMPILATION_CACHE_DIR", None)  # the tests' own cache
+        os.environ.pop("SC2JAX_COMPILATION_CACHE", None)
+        import jax
+        from sc2jax.experiments.training import flags as training_flags
+        from sc2jax.environment.engine.xla.compilation_cache import use_compilation_cache
+        training_flags.define_training()
+        training_flags.FLAGS(["cmd", "--compilation_cache="])
+        training_flags.start_command()
+        assert use_compilation_cache() is None  # what `make` calls
+        assert not jax.config.jax_compilation_cache_dir
+        assert os.environ["SC2JAX_COMPILATION_CACHE"] == "0"  # child processes
+        print("ok")
+    """)
+    assert out.returncode == 0 and out.stdout.strip() == "ok", out.stderr[-2000:]
+
+
 def test_networks_and_losses_import_without_the_simulator():
     out = _run("""
         import sys

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import dataclasses
 import logging
+import os
 import sys
 import tempfile
 
@@ -42,6 +43,8 @@ def start_command() -> None:
     if FLAGS.compilation_cache:
         jax.config.update("jax_compilation_cache_dir", FLAGS.compilation_cache)
         jax.config.update("jax_persistent_cache_min_compile_time_secs", 1.0)
+    else:  # Off for `make` (`use_compilation_cache`) and child processes too.
+        os.environ[ENV] = "0"
 
 # flag name -> (TrainConfig field, absl definer, help).
 _TABLE = {
