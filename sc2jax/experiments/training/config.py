@@ -67,6 +67,11 @@ class TrainConfig:
       gae_lambda: GAE's λ for PPO.
       compute_dtype: the dtype of the network's convolutions and matmuls: "float32" or
         "bfloat16" (parameters, gradients and the optimiser stay float32).
+      actor_device: None: act and learn one after the other in one compiled program
+        (simulator). d: the environments and the policy run on this process's local
+        device d beside the learner on device 0 (`device_actor`, the split loop: acting
+        overlaps learning, the policy lags by up to 2 updates, which V-trace corrects;
+        the environments are not checkpointed).
       seed: the run's seed (parameters, environments and actions).
       updates_per_chunk: updates between two host calls (logging).
       checkpoint_interval_s: seconds between checkpoints (one is always written at the end).
@@ -110,6 +115,7 @@ class TrainConfig:
     ppo_clip: float = 0.2
     gae_lambda: float = 0.95
     compute_dtype: str = "float32"
+    actor_device: int | None = None
     seed: int = 0
     updates_per_chunk: int = 10
     checkpoint_interval_s: float = 300.0
@@ -171,6 +177,12 @@ class TrainConfig:
             raise ValueError(f"discount must be in [0, 1], got {self.discount!r}")
         if not 0.0 <= self.rmsprop_decay < 1.0:
             raise ValueError(f"rmsprop_decay must be in [0, 1), got {self.rmsprop_decay!r}")
+        if self.actor_device is not None:
+            check_non_negative_int("actor_device", self.actor_device)
+            if self.backend != "simulator":
+                raise ValueError(f"actor_device={self.actor_device!r} needs backend "
+                                 f"'simulator' (the real game's actors are its processes); "
+                                 f"use None")
         for name in ("warmup_updates", "eval_episodes", "best_eval_interval"):
             check_non_negative_int(name, getattr(self, name))
         check_positive_int("best_eval_episodes", self.best_eval_episodes)

@@ -102,6 +102,10 @@ _TABLE = {
     "compute_dtype": ("compute_dtype", flags.DEFINE_string,
                       "The network's convolutions and matmuls: 'float32' or 'bfloat16' "
                       "(parameters and optimiser stay float32)."),
+    "actor_device": ("actor_device", flags.DEFINE_integer,
+                     "Act on this local device beside the learner on device 0 (the split "
+                     "loop: acting overlaps learning; use V-trace). Unset: one compiled "
+                     "program acts, then learns."),
     "seed": ("seed", flags.DEFINE_integer, "Random seed."),
     "updates_per_chunk": ("updates_per_chunk", flags.DEFINE_integer,
                           "Updates between log rows."),

@@ -62,6 +62,7 @@ from sc2jax.experiments.training.checkpoints import (
 )
 from sc2jax.experiments.training.compiled_loop import TrainState, make_train_chunk
 from sc2jax.experiments.training.config import TrainConfig
+from sc2jax.experiments.training.device_actor import DeviceActor
 from sc2jax.experiments.training.host_actor import HostActor, SplitLoop
 from sc2jax.experiments.training.learner import (
     Learner,
@@ -108,9 +109,9 @@ class Agent:
         return self.learner.init(learner_key, observation, rate)
 
     def initial(self, key: jax.Array) -> Any:
-        """What a run checkpoints: a `TrainState` on the simulator, the `LearnerState` on
-        the real game."""
-        if self.sim is None:
+        """What a run checkpoints: a `TrainState` in the compiled loop, the `LearnerState`
+        in the split loop (the real game, or `actor_device`)."""
+        if self.sim is None or self.config.actor_device is not None:
             return self.initial_learner(key)
         return self.initial_state(key)
 
@@ -373,11 +374,18 @@ def train(config: TrainConfig, run_dir: str, *, log: Callable[[str], None] = pri
     stop_at = config.total_updates if stop_after_updates is None else min(
         stop_after_updates, config.total_updates)
     try:
-        if env is None:
+        if env is None and config.actor_device is None:
             run_chunk = _compiled_chunks(agent)
         elif update < stop_at:
-            actor = HostActor(env, agent.core, config.unroll_length,
-                              seed=config.seed + update)
+            if env is None:  # Resumed runs start new episodes (the actor is not saved).
+                actor = DeviceActor(agent._unroll(), config.num_envs,
+                                    jax.random.fold_in(jax.random.PRNGKey(config.seed),
+                                                       update),
+                                    jax.local_devices()[config.actor_device],
+                                    learner_device=jax.local_devices()[0])
+            else:
+                actor = HostActor(env, agent.core, config.unroll_length,
+                                  seed=config.seed + update)
             loop = SplitLoop(actor, agent.learner, state.params)
             run_chunk = _split_chunks(loop, actor, config)
         while update < stop_at:
@@ -521,10 +529,20 @@ def _devices_mesh(config: TrainConfig, devices: int):
 
     Raises:
       ValueError: for a count below 1 or above this process's devices, a run on the
-        real game, or environments that do not split evenly.
+        real game, environments that do not split evenly, or an `actor_device` this
+        process does not have or with more than one learner device.
     """
     check_positive_int("devices", devices)
     processes = jax.process_count()
+    if config.actor_device is not None:
+        if devices > 1 or processes > 1:
+            raise ValueError(f"actor_device={config.actor_device} runs one learner on one "
+                             f"device; it takes devices=1 in one process, not "
+                             f"devices={devices} over {processes} processes")
+        if config.actor_device >= jax.local_device_count():
+            raise ValueError(f"actor_device={config.actor_device}, but this process has "
+                             f"{jax.local_device_count()} devices: "
+                             f"{jax.local_devices()}")
     if devices == 1 and processes == 1:
         return None
     first_devices(devices, config.num_envs, "devices")

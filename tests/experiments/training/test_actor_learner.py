@@ -23,6 +23,7 @@ from sc2jax.experiments.training.actor import make_unroll
 from sc2jax.experiments.training.checkpoints import placed_as_restored
 from sc2jax.experiments.training.compiled_loop import make_train_chunk
 from sc2jax.experiments.training.config import TrainConfig
+from sc2jax.experiments.training.device_actor import DeviceActor
 from sc2jax.experiments.training.host_actor import HostActor, run_split_loop
 from sc2jax.experiments.training.learner import OptimiserConfig, make_learner
 from sc2jax.networks import policy
@@ -175,6 +176,23 @@ def test_split_loop_trains_from_a_dm_env_environment():
     assert all(np.isfinite(m["loss"]) for m in metrics)
     with pytest.raises(ValueError, match="num_updates"):
         run_split_loop(actor, agent.learner, state, 0)
+
+
+def test_a_device_actor_feeds_the_split_loop():
+    config = TrainConfig(**{**TINY.to_json(), "off_policy_correction": "vtrace"})
+    agent = trainer.build(config)
+    k, device = config.unroll_length, jax.devices()[0]
+    actor = DeviceActor(make_unroll(agent.sim, agent.core, k), 2, jax.random.PRNGKey(0),
+                        device, learner_device=device)
+    state = placed_as_restored(agent.initial_learner(jax.random.PRNGKey(3)))
+    trajectory = actor.unroll(state.params)
+    assert trajectory.observation["feature_screen"].shape == (k + 1, 2, 2, 16, 16)
+    assert trajectory.reward.devices() == {device}
+    # MoveToBeacon's timer ends both episodes after 240 agent steps.
+    updates = 240 // k + 1
+    learner, metrics = run_split_loop(actor, agent.learner, state, updates)
+    assert int(learner.update) == updates and all(np.isfinite(m["loss"]) for m in metrics)
+    assert len(actor.episode_returns) == 2 and min(actor.episode_returns) >= 0
 
 
 @pytest.mark.slow

@@ -58,6 +58,8 @@ SWEEP = TrainConfig(**{**PERIODIC.to_json(), "eval_episodes": 2})
     (dict(ppo_minibatches=3), "num_envs=32 does not split into ppo_minibatches=3"),
     (dict(ppo_clip=1.0), r"ppo_clip must be in \(0, 1\), got 1.0"),
     (dict(gae_lambda=-0.1), r"gae_lambda must be in \[0, 1\], got -0.1"),
+    (dict(actor_device=-1), "actor_device must be an int >= 0, got -1"),
+    (dict(backend="sc2", actor_device=0), "actor_device=0 needs backend 'simulator'"),
 ])
 def test_config_rejects_bad_values(change, message):
     with pytest.raises(ValueError, match=message):
@@ -101,6 +103,24 @@ def test_learning_rate_warms_up_linearly():
         pytest.approx(8.5e-4))
     with pytest.raises(ValueError, match="warmup_updates must be an int >= 0, got -1"):
         TrainConfig(warmup_updates=-1)
+
+
+def test_train_with_the_actor_beside_the_learner_resumes_and_evaluates(tmp_path):
+    config = TrainConfig(**{**TINY.to_json(), "actor_device": 0, "eval_episodes": 2,
+                            "off_policy_correction": "vtrace"})
+    run_dir = str(tmp_path / "split")
+    first = trainer.train(config, run_dir, log=lambda _: None, progress=False,
+                          stop_after_updates=2)
+    assert int(first.state.update) == 2  # the learner's state alone is checkpointed
+    resumed = trainer.train(config, run_dir, log=lambda _: None, progress=False)
+    assert int(resumed.state.update) == config.total_updates
+    assert resumed.evaluation["episodes"] == 2
+    assert read_csv(os.path.join(run_dir, "metrics.csv"))["update"].tolist() == [2, 4]
+    with pytest.raises(ValueError, match="actor_device=0 runs one learner on one device"):
+        trainer.train(config, str(tmp_path / "x"), devices=2)
+    with pytest.raises(ValueError, match="actor_device=7, but this process has"):
+        trainer.train(TrainConfig(**{**config.to_json(), "actor_device": 7}),
+                      str(tmp_path / "y"))
 
 
 def test_train_resumes_exactly_where_it_stopped(tmp_path):
