@@ -102,13 +102,17 @@ def run_sweep(config: TrainConfig, learning_rates, sweep_dir: str, *,
       are still training: that part's summary, with `complete` False.
 
     Raises:
-      ValueError: for bad learning rates, a config not on the simulator, a bad part, or
-        a sweep directory split into another number of parts.
+      ValueError: for bad learning rates, a config not on the simulator or with an
+        `actor_device`, a bad part, or a sweep directory split into another number of
+        parts.
     """
     if config.backend != "simulator":
         raise ValueError(f"a sweep trains its runs together in one compiled program on the "
                          f"simulator; backend {config.backend!r} is not allowed (on the real "
                          f"game, train each learning rate with train --backend=sc2)")
+    if config.actor_device is not None:
+        raise ValueError(f"a sweep trains its runs in one compiled program; "
+                         f"actor_device={config.actor_device} is for train; leave it unset")
     rates = np.asarray(learning_rates, np.float32)
     if rates.ndim != 1 or rates.size < 1 or not (rates > 0).all():
         raise ValueError(f"learning_rates must be a non-empty list of positive rates, got "

@@ -133,6 +133,8 @@ def test_sweep_parts_are_checked_before_any_work(tmp_path):
     with pytest.raises(ValueError, match=r"split into other parts \(part0of12\)"):
         sweeping.run_sweep(TrainConfig(), [1e-4, 1e-3], str(tmp_path), part=(1, 2))
     assert [p.name for p in tmp_path.iterdir()] == ["part0of12"]
+    with pytest.raises(ValueError, match="actor_device=1 is for train"):
+        sweeping.run_sweep(TrainConfig(actor_device=1), [1e-4], str(tmp_path / "a"))
 
 
 def test_process_numbers_come_from_the_flags_or_the_cluster(monkeypatch):
