@@ -135,7 +135,7 @@ def run_sweep(config: TrainConfig, learning_rates, sweep_dir: str, *,
     blocks = np.array_split(np.arange(rates.size), parts)
     mine = _sweep(config, rates[blocks[index]], blocks[index],
                   os.path.join(sweep_dir, f"part{index}of{parts}"), log)
-    summaries = [_read_summary(os.path.join(sweep_dir, f"part{i}of{parts}"))
+    summaries = [read_summary(os.path.join(sweep_dir, f"part{i}of{parts}"))
                  for i in range(parts)]
     if not all(s is not None and s["agent_steps_per_run"] == mine["agent_steps_per_run"]
                for s in summaries):
@@ -145,7 +145,7 @@ def run_sweep(config: TrainConfig, learning_rates, sweep_dir: str, *,
     return _merge(config, summaries, sweep_dir)
 
 
-def _read_summary(part_dir: str) -> dict | None:
+def read_summary(part_dir: str) -> dict | None:
     """A finished sweep's (or part's) sweep.json; None before it has one."""
     path = os.path.join(part_dir, "sweep.json")
     if not os.path.exists(path):

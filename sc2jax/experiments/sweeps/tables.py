@@ -20,7 +20,7 @@ import numpy as np
 from sc2jax.atomic import atomic_write, write_json_atomic
 from sc2jax.environment import make
 from sc2jax.experiments.reporting.paper import MAPS, NETWORK_ROW, ROW_TITLES, TABLE1
-from sc2jax.experiments.sweeps.sweeping import run_score_rule, run_sweep
+from sc2jax.experiments.sweeps.sweeping import read_summary, run_score_rule, run_sweep
 from sc2jax.experiments.training import evaluation
 from sc2jax.experiments.training.config import TrainConfig, parse_names
 from sc2jax.experiments.training.trainer import check_run_dir
@@ -99,10 +99,9 @@ def build_table1(config: TrainConfig, maps: Sequence[str], learning_rates, run_d
     for name in maps:  # Every map's directory is checked before anything runs.
         sweep_dir = os.path.join(run_dir, name)
         check_run_dir(sweep_dir, dataclasses.replace(config, map_name=name))
-        done = os.path.join(sweep_dir, "sweep.json")
-        if os.path.exists(done):
-            with open(done) as f:
-                finished[name] = json.load(f)
+        summary = read_summary(sweep_dir)
+        if summary is not None:
+            finished[name] = summary
             saved = np.asarray(finished[name]["learning_rates"], np.float32)
             if saved.shape != rates.shape or not np.allclose(saved, rates, rtol=1e-6):
                 raise ValueError(f"{sweep_dir} holds a sweep of the learning rates "
@@ -147,12 +146,9 @@ def build_table1(config: TrainConfig, maps: Sequence[str], learning_rates, run_d
 
 def _finished_sweep(sweep_dir: str, needed: int, runs: int) -> dict | None:
     """sweep_dir's sweep.json when it covers `runs` runs of `needed` agent steps."""
-    path = os.path.join(sweep_dir, "sweep.json")
-    if not os.path.exists(path):
-        return None
-    with open(path) as f:
-        summary = json.load(f)
-    if summary["agent_steps_per_run"] < needed or len(summary["run_scores"]) != runs:
+    summary = read_summary(sweep_dir)
+    if summary is None or summary["agent_steps_per_run"] < needed or len(
+            summary["run_scores"]) != runs:
         return None
     return summary
 
