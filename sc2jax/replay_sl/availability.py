@@ -38,7 +38,7 @@ from sc2jax.environment.interface.features import UNIT_TYPE_SCALE
 from sc2jax.environment.interface.functions import ALWAYS, FUNCTIONS, NUM_FUNCTIONS
 from sc2jax.environment.interface.observation_tables import Player
 from sc2jax.replay_sl.actions import ActionLabels
-from sc2jax.replay_sl.units import UnitsAt, UnitTable, stable_unit_ids
+from sc2jax.replay_sl.units import UnitsAt, UnitTable, stable_unit_ids, stable_unit_names
 
 FIRST_CARD_FUNCTION = FUNCTIONS.unload.id
 """Functions from this id on are decided by the command cards (PySC2's ids 10 and up)."""
@@ -61,7 +61,7 @@ class CommandCards:
 
 def counts_to_json(counts: collections.Counter) -> dict:
     """{unit type name: {function name: uses}} from `learn_cards`' counts."""
-    names = {v: k for k, v in stable_unit_ids().items()}
+    names = stable_unit_names()
     out: dict[str, dict[str, int]] = {}
     for (unit_type, function), n in sorted(counts.items()):
         out.setdefault(names.get(unit_type, str(unit_type)), {})[FUNCTIONS[function].name] = n

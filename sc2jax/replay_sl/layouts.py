@@ -27,7 +27,7 @@ import numpy as np
 
 from sc2jax.environment.engine.ladder import MapLayout
 from sc2jax.replay_sl.archive import ReplayError, open_replay
-from sc2jax.replay_sl.units import stable_unit_ids, unit_table
+from sc2jax.replay_sl.units import stable_unit_names, unit_table
 
 TOWN_HALLS = frozenset({"CommandCenter", "Nexus", "Hatchery"})
 FLYING = frozenset({
@@ -63,13 +63,13 @@ def replay_layout(path: str | os.PathLike, name: str) -> MapLayout:
     description = replay.initdata["m_syncLobbyState"]["m_gameDescription"]
     size = (int(description["m_mapSizeX"]), int(description["m_mapSizeY"]))
     table = unit_table(replay)
-    names = _type_names()
-    type_name = np.vectorize(lambda i: names.get(int(i), ""), otypes=[object])
+    names = stable_unit_names()
+    walking = np.array([_walks(names.get(i, "")) for i in range(max(names) + 1)], bool)
     first = table.born == 0
     minerals, geysers, neutral, starts = [], [], [], []
     for x, y, owner, kind in zip(table.x[first].tolist(), table.y[first].tolist(),
-                                 table.owner[first].tolist(),
-                                 type_name(table.unit_type[first]).tolist()):
+                                 table.owner[first].tolist(), table.unit_type[first].tolist()):
+        kind = names.get(kind, "")
         if owner == 0 and is_mineral(kind):
             minerals.append((x, y + 0.5, kind))
         elif owner == 0 and is_geyser(kind):
@@ -79,17 +79,14 @@ def replay_layout(path: str | os.PathLike, name: str) -> MapLayout:
         elif kind in TOWN_HALLS:
             starts.append((x + 0.5, y + 0.5))
     ground = np.zeros(size[::-1], bool)
-    players = table.owner > 0
-    walks = np.array([_walks(n) for n in type_name(table.unit_type).tolist()], bool)
-    _mark(ground, table.x[players & walks], table.y[players & walks])
+    on_ground = (table.owner > 0) & walking[table.unit_type]
+    _mark(ground, table.x[on_ground], table.y[on_ground])
     if len(table.positions):
         loops = np.unique(table.positions[:, 0].astype(np.int64))
         at = table.at(loops)
         step = np.searchsorted(loops, table.positions[:, 0].astype(np.int64))
         row = table.positions[:, 1].astype(np.int64)
-        kinds = at.unit_type[step, row]
-        ok = np.array([_walks(names.get(int(k), "")) for k in kinds], bool)
-        ok &= at.owner[step, row] > 0
+        ok = walking[at.unit_type[step, row]] & (at.owner[step, row] > 0)
         _mark(ground, table.positions[ok, 2], table.positions[ok, 3])
     return MapLayout(name=name, map_size=size, start_locations=tuple(sorted(starts)),
                      minerals=tuple(sorted(minerals)), geysers=tuple(sorted(geysers)),
@@ -101,10 +98,6 @@ def _mark(ground: np.ndarray, xs: np.ndarray, ys: np.ndarray) -> None:
     x, y = np.floor(xs).astype(np.int64), np.floor(ys).astype(np.int64)
     inside = (x >= 0) & (x < ground.shape[1]) & (y >= 0) & (y < ground.shape[0])
     ground[y[inside], x[inside]] = True
-
-
-def _type_names() -> dict[int, str]:
-    return {i: n for n, i in stable_unit_ids().items()}
 
 
 _SAME = ("map_size", "start_locations", "minerals", "geysers", "neutral_units")

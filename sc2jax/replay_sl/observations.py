@@ -176,25 +176,28 @@ class _Stack(NamedTuple):
         return cls(np.zeros((steps, len(features), size, size), np.uint8),
                    np.zeros((steps, wide, size, size), np.uint8), features)
 
-    def set(self, name: str, plane: np.ndarray) -> None:
-        """Layer `name` = `plane` [T, S, S] (below 256 for a narrow layer)."""
+    def _channels(self, name: str) -> tuple[int, int | None]:
+        """Layer `name`'s channel in `low`, and in `high` (None for a narrow layer)."""
         c = getattr(self.features, name).index
         wide = narrow.wide_channels(self.features)
-        self.low[:, c] = plane & 0xFF if c in wide else plane
-        if c in wide:
-            self.high[:, wide.index(c)] = plane >> 8
+        return c, wide.index(c) if c in wide else None
+
+    def set(self, name: str, plane: np.ndarray) -> None:
+        """Layer `name` = `plane` [T, S, S] (below 256 for a narrow layer)."""
+        c, w = self._channels(name)
+        self.low[:, c] = plane if w is None else plane & 0xFF
+        if w is not None:
+            self.high[:, w] = plane >> 8
 
     def put(self, name: str, t: np.ndarray, pixel: np.ndarray, value: np.ndarray) -> None:
         """Layer `name`[t[n], pixel[n]] = value[n] (pixel: y * S + x), in order, so a
         later value at the same place wins."""
-        c = getattr(self.features, name).index
-        wide = narrow.wide_channels(self.features)
+        c, w = self._channels(name)
         area = self.low.shape[2] * self.low.shape[3]
         self.low.reshape(-1)[(t * self.low.shape[1] + c) * area + pixel] = (
-            value & 0xFF if c in wide else value)
-        if c in wide:
-            self.high.reshape(-1)[(t * self.high.shape[1] + wide.index(c)) * area + pixel] = (
-                value >> 8)
+            value if w is None else value & 0xFF)
+        if w is not None:
+            self.high.reshape(-1)[(t * self.high.shape[1] + w) * area + pixel] = value >> 8
 
     def packed(self, key: str) -> dict[str, np.ndarray]:
         return {key: self.low, key + narrow.HIGH_SUFFIX: self.high}

@@ -48,6 +48,12 @@ def stable_unit_ids() -> dict[str, int]:
     return {u["name"]: u["id"] for u in json.loads(data.read_text(encoding="utf-8"))["Units"]}
 
 
+@functools.cache
+def stable_unit_names() -> dict[int, str]:
+    """Stable unit id -> unit name: `stable_unit_ids` inverted."""
+    return {i: name for name, i in stable_unit_ids().items()}
+
+
 @dataclasses.dataclass(frozen=True)
 class UnitTable:
     """The replay's units, one row per unit tag (int32 arrays [U] unless said otherwise).
