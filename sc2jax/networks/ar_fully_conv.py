@@ -30,7 +30,7 @@ import jax.numpy as jnp
 from sc2jax.environment.interface.dense import DenseAction
 from sc2jax.networks.fully_conv import FullyConvTorso
 from sc2jax.networks.heads import pixel_logits, resize
-from sc2jax.networks.outputs import ArgumentLogits, NetworkOutput
+from sc2jax.networks.outputs import ArgumentLogits, NetworkOutput, as_float32
 from sc2jax.networks.policy import (
     argument_sample,
     choose,
@@ -85,8 +85,7 @@ class ARFullyConv(nn.Module):
     def _body(self, obs: Mapping[str, jax.Array]):
         state = self.torso(obs)
         h = nn.relu(self.fc(state.reshape(state.shape[0], -1)))
-        return (state, h, self.value_head(h)[:, 0].astype(jnp.float32),
-                self.function_head(h).astype(jnp.float32))
+        return (state, h, *as_float32((self.value_head(h)[:, 0], self.function_head(h))))
 
     def _embed(self, i: int, value: jax.Array) -> jax.Array:
         if len(self.spec.argument_sizes[i]) == 2:
@@ -107,7 +106,7 @@ class ARFullyConv(nn.Module):
                 lg = pixel_logits(self.arg_heads[i](nn.relu(p + cond[:, None, None, :])))
             else:
                 lg = self.arg_heads[i](nn.relu(h + self.arg_conds[i](cond)))
-            lg = jax.tree.map(lambda x: x.astype(jnp.float32), lg)
+            lg = as_float32(lg)
             if given is None:
                 value = zero_unused(argument_sample(noise[i], lg, temperature), used[:, i])
             else:

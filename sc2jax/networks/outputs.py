@@ -96,9 +96,10 @@ class NetworkOutput(NamedTuple):
     argument_logits: ArgumentLogits
 
 
-def as_float32(out: NetworkOutput) -> NetworkOutput:
-    """`out` with every array float32 (a network computing in bfloat16 returns float32
-    values and logits, for the policy's log-softmax and the losses)."""
+def as_float32(out):
+    """`out` (a `NetworkOutput`, logits, any tree of arrays) with every array float32: a
+    network computing in bfloat16 returns float32 values and logits, for the policy's
+    log-softmax and the losses."""
     return jax.tree.map(lambda x: x.astype(jnp.float32), out)
 
 

@@ -78,11 +78,14 @@ def file_name(map_name: str) -> str:
     return re.sub(r"[^a-z0-9]+", "_", map_name.lower()).strip("_") + ".json"
 
 
+def _folder():
+    return importlib.resources.files("sc2jax.environment.engine") / DATA
+
+
 def layouts() -> tuple[str, ...]:
     """The names of the packaged layouts."""
-    folder = importlib.resources.files("sc2jax.environment.engine") / DATA
     names = []
-    for entry in folder.iterdir():
+    for entry in _folder().iterdir():
         if entry.name.endswith(".json"):
             names.append(json.loads(entry.read_text(encoding="utf-8"))["name"])
     return tuple(sorted(names))
@@ -95,7 +98,7 @@ def load_layout(map_name: str) -> MapLayout:
     Raises:
       ValueError: for a map without one, naming those there are.
     """
-    path = importlib.resources.files("sc2jax.environment.engine") / DATA / file_name(map_name)
+    path = _folder() / file_name(map_name)
     if not path.is_file():
         raise ValueError(f"no layout of map {map_name!r}; the packaged ones: {list(layouts())}")
     return MapLayout.from_json(json.loads(path.read_text(encoding="utf-8")))
