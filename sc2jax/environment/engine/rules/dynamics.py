@@ -538,8 +538,9 @@ def _called(units: Units, data, block: PairBlock, fires, target, attacker):
 
 
 def _damage_per_hit(data, target, target_data=None):
-    """The damage one attack of unit i deals to the slots `target[i]`: damage, plus the
-    bonus against Light targets, minus armour, and at least 0.5 (the game's minimum).
+    """The damage one attack of unit i deals to the slots `target[i]`: each of its hits
+    deals the damage, plus its bonus against targets with the bonus attribute, minus
+    armour, and at least 0.5 (the game's minimum).
 
     Args:
       data: per-unit stats of the R attackers.
@@ -551,9 +552,10 @@ def _damage_per_hit(data, target, target_data=None):
     """
     target_data = data if target_data is None else target_data
     own = lambda x: x.reshape(x.shape + (1,) * (target.ndim - 1))  # noqa: E731
-    light = (target_data.attributes[target] & Attribute.LIGHT) > 0
-    return jnp.maximum(own(data.damage) + jnp.where(light, own(data.bonus_light), 0.0)
-                       - target_data.armor[target], 0.5)
+    bonus = (target_data.attributes[target] & own(data.bonus_attribute)) > 0
+    hit = jnp.maximum(own(data.damage) + jnp.where(bonus, own(data.bonus), 0.0)
+                      - target_data.armor[target], 0.5)
+    return own(data.attacks).astype(jnp.float32) * hit
 
 
 def _complete_orders(units: Units, old_pos, step, goal_dist, has_target, moving) -> Units:

@@ -233,14 +233,15 @@ class EnvState:
 
 
 def _new_units(units: Units, k: int, unit_type, owner, positions, tags, selected) -> dict:
-    """Field -> the values of k new units (complete, at full health, with no orders), each
-    broadcast to [k, ...] (`place`, `place_where`)."""
+    """Field -> the values of k new units (complete, at full health and starting energy,
+    with no orders), each broadcast to [k, ...] (`place`, `place_where`)."""
     types = jnp.broadcast_to(jnp.asarray(unit_type, jnp.int32), (k,))
     data = UNIT_DATA
     values = dict(
         alive=True, type=types, owner=jnp.asarray(owner, jnp.int32), tag=tags,
         pos=positions, facing=DEFAULT_FACING, health=jnp.asarray(data.max_health)[types],
-        shields=jnp.asarray(data.max_shields)[types], energy=0.0, cooldown=0.0,
+        shields=jnp.asarray(data.max_shields)[types],
+        energy=jnp.asarray(data.start_energy)[types], cooldown=0.0,
         orders=Order.NONE, order_unit=NO_TARGET, target=NO_TARGET, selected=selected,
         groups=0, cargo=0.0, work=0.0, contents=jnp.asarray(data.contents)[types],
         home=NO_TARGET, order_type=0, gas=False,

@@ -1,17 +1,21 @@
 """Unit data: the simulator's unit types and their game stats, as arrays indexed by type.
 
 The simulator numbers its unit types compactly (`UnitType`); `UNIT_DATA.sc2_id` maps them
-to StarCraft II's unit ids (as in the `unit_type` layers). Stats are the game's values at
-Normal speed (reference/pysc2_facts.md §7) converted to game loops: speeds in world units
-per loop, cooldowns in loops (16 loops per game second).
+to StarCraft II's unit ids (as in the `unit_type` layers). Terran types take their stats
+from the Terran data table (`terran_data`, from the game API's data); the mini-games'
+Zerg and neutral types from reference/pysc2_facts.md §7. Values are converted to game
+loops: speeds in world units per loop, cooldowns in loops (16 loops per game second).
 """
 
 from __future__ import annotations
 
 import enum
+import functools
 from typing import NamedTuple
 
 import numpy as np
+
+from sc2jax.environment.engine import terran_data
 
 LOOPS_PER_SECOND = 16
 
@@ -33,6 +37,32 @@ class UnitType(enum.IntEnum):
     SUPPLY_DEPOT = 11
     BARRACKS = 12
     REFINERY = 13
+    MULE = 14
+    MARAUDER = 15
+    REAPER = 16
+    HELLION = 17
+    SIEGE_TANK = 18
+    SIEGE_TANK_SIEGED = 19
+    MEDIVAC = 20
+    VIKING_FIGHTER = 21
+    VIKING_ASSAULT = 22
+    COMMAND_CENTER_FLYING = 23
+    ORBITAL_COMMAND = 24
+    ORBITAL_COMMAND_FLYING = 25
+    SUPPLY_DEPOT_LOWERED = 26
+    BARRACKS_FLYING = 27
+    FACTORY = 28
+    FACTORY_FLYING = 29
+    STARPORT = 30
+    STARPORT_FLYING = 31
+    BARRACKS_TECH_LAB = 32
+    BARRACKS_REACTOR = 33
+    FACTORY_TECH_LAB = 34
+    FACTORY_REACTOR = 35
+    STARPORT_TECH_LAB = 36
+    STARPORT_REACTOR = 37
+    ENGINEERING_BAY = 38
+    BUNKER = 39
 
 
 class Attribute(enum.IntFlag):
@@ -43,6 +73,21 @@ class Attribute(enum.IntFlag):
     STRUCTURE = 16
 
 
+class Targets(enum.IntFlag):
+    """What a weapon can hit."""
+
+    GROUND = 1
+    AIR = 2
+
+
+@functools.cache
+def game_name(unit_type: UnitType) -> str | None:
+    """The Terran data table's name of a type ("SIEGE_TANK" -> "SiegeTank"), or None for
+    the types the table does not hold."""
+    key = unit_type.name.replace("_", "").lower()
+    return {name.lower(): name for name in terran_data.table()["units"]}.get(key)
+
+
 class UnitData(NamedTuple):
     """Per-type stats; each field is an array of length `len(UnitType)`.
 
@@ -51,14 +96,19 @@ class UnitData(NamedTuple):
       radius: collision radius, world units.
       speed: world units per game loop (0 for immobile units).
       max_health, max_shields, max_energy: vitals.
+      start_energy: the energy a new unit has.
       armor: damage reduction per hit.
-      damage: damage per attack (0: no weapon).
-      bonus_light: extra damage against Light targets.
+      damage: damage per hit (0: no weapon).
+      bonus: extra damage per hit against targets with `bonus_attribute`.
+      bonus_attribute: `Attribute` flag the bonus applies to (0: none).
+      attacks: hits per attack (each reduced by armour).
+      targets: `Targets` flags: what the weapon hits.
       cooldown: loops between attacks.
       range: weapon range, edge to edge, world units.
       sight: sight radius, world units.
       acquire: auto-acquisition range for idle and attack-moving units.
       attributes: `Attribute` flags.
+      flying: the unit is in the air.
       is_army: counts for `select_army` and `army_count`.
       food: supply used.
       mineral_cost, vespene_cost: cost.
@@ -77,14 +127,19 @@ class UnitData(NamedTuple):
     max_health: np.ndarray
     max_shields: np.ndarray
     max_energy: np.ndarray
+    start_energy: np.ndarray
     armor: np.ndarray
     damage: np.ndarray
-    bonus_light: np.ndarray
+    bonus: np.ndarray
+    bonus_attribute: np.ndarray
+    attacks: np.ndarray
+    targets: np.ndarray
     cooldown: np.ndarray
     range: np.ndarray
     sight: np.ndarray
     acquire: np.ndarray
     attributes: np.ndarray
+    flying: np.ndarray
     is_army: np.ndarray
     food: np.ndarray
     mineral_cost: np.ndarray
@@ -99,38 +154,21 @@ class UnitData(NamedTuple):
 _L, _A, _B, _M, _S = (Attribute.LIGHT, Attribute.ARMORED, Attribute.BIOLOGICAL,
                       Attribute.MECHANICAL, Attribute.STRUCTURE)
 
-# Normal-speed values: speed in units per game-second, cooldown in game-seconds.
-# Columns: sc2_id, radius, speed, health, shields, energy, armor, damage, bonus_light,
-#          cooldown, range, sight, acquire, attributes, is_army, food, minerals, vespene.
-_TABLE = {
-    UnitType.NONE: (0, 0.0, 0.0, 0, 0, 0, 0, 0, 0, 0.0, 0.0, 0.0, 0.0, 0, 0, 0, 0, 0),
-    UnitType.MARINE: (48, 0.375, 2.25, 45, 0, 0, 0, 6, 0, 0.8608, 5.0, 9.0, 5.0, _L | _B,
-                      1, 1, 50, 0),
-    UnitType.ZERGLING: (105, 0.375, 2.953, 35, 0, 0, 0, 5, 0, 0.696, 0.1, 8.0, 5.0, _L | _B,
+# The mini-games' types that are not Terran, at Normal speed: speed in units per
+# game-second, cooldown in game-seconds. Columns: sc2_id, radius, speed, health, armor,
+# damage, bonus against Light, cooldown, range, sight, acquire, attributes, is_army,
+# food, minerals, vespene.
+_OTHERS = {
+    UnitType.NONE: (0, 0.0, 0.0, 0, 0, 0, 0, 0.0, 0.0, 0.0, 0.0, 0, 0, 0, 0, 0),
+    UnitType.ZERGLING: (105, 0.375, 2.953, 35, 0, 5, 0, 0.696, 0.1, 8.0, 5.0, _L | _B,
                         1, 0.5, 25, 0),
-    UnitType.ROACH: (110, 0.5, 2.25, 145, 0, 0, 1, 16, 0, 2.0, 4.0, 9.0, 5.0, _A | _B,
-                     1, 2, 75, 25),
-    UnitType.BANELING: (9, 0.375, 2.5, 30, 0, 0, 0, 20, 15, 0.833, 0.25, 8.0, 5.0, _B,
-                        1, 0.5, 25, 25),
-    UnitType.SCV: (45, 0.375, 2.8125, 45, 0, 0, 0, 5, 0, 1.5, 0.1, 8.0, 0.0, _L | _B | _M,
-                   0, 1, 50, 0),
-    UnitType.BEACON: (317, 1.25, 0.0, 0, 0, 0, 0, 0, 0, 0.0, 0.0, 0.0, 0.0, 0, 0, 0, 0, 0),
-    UnitType.MINERAL_SHARD: (1680, 0.375, 0.0, 0, 0, 0, 0, 0, 0, 0.0, 0.0, 0.0, 0.0, 0,
-                             0, 0, 0, 0),
-    UnitType.MINERAL_FIELD: (341, 1.125, 0.0, 0, 0, 0, 0, 0, 0, 0.0, 0.0, 0.0, 0.0, _S,
-                             0, 0, 0, 0),
-    UnitType.VESPENE_GEYSER: (342, 1.8125, 0.0, 0, 0, 0, 0, 0, 0, 0.0, 0.0, 0.0, 0.0, _S,
-                              0, 0, 0, 0),
-    UnitType.COMMAND_CENTER: (18, 2.75, 0.0, 1500, 0, 0, 1, 0, 0, 0.0, 0.0, 11.0, 0.0,
-                              _A | _M | _S, 0, 0, 400, 0),
-    UnitType.SUPPLY_DEPOT: (19, 1.25, 0.0, 400, 0, 0, 1, 0, 0, 0.0, 0.0, 9.0, 0.0,
-                            _A | _M | _S, 0, 0, 100, 0),
-    UnitType.BARRACKS: (21, 1.8125, 0.0, 1000, 0, 0, 1, 0, 0, 0.0, 0.0, 9.0, 0.0,
-                        _A | _M | _S, 0, 0, 150, 0),
-    UnitType.REFINERY: (20, 1.8125, 0.0, 500, 0, 0, 1, 0, 0, 0.0, 0.0, 9.0, 0.0,
-                        _A | _M | _S, 0, 0, 75, 0),
+    UnitType.ROACH: (110, 0.5, 2.25, 145, 1, 16, 0, 2.0, 4.0, 9.0, 5.0, _A | _B, 1, 2, 75, 25),
+    UnitType.BANELING: (9, 0.375, 2.5, 30, 0, 20, 15, 0.833, 0.25, 8.0, 5.0, _B, 1, 0.5, 25, 25),
+    UnitType.BEACON: (317, 1.25, 0.0, 0, 0, 0, 0, 0.0, 0.0, 0.0, 0.0, 0, 0, 0, 0, 0),
+    UnitType.MINERAL_SHARD: (1680, 0.375, 0.0, 0, 0, 0, 0, 0.0, 0.0, 0.0, 0.0, 0, 0, 0, 0, 0),
+    UnitType.MINERAL_FIELD: (341, 1.125, 0.0, 0, 0, 0, 0, 0.0, 0.0, 0.0, 0.0, _S, 0, 0, 0, 0),
+    UnitType.VESPENE_GEYSER: (342, 1.8125, 0.0, 0, 0, 0, 0, 0.0, 0.0, 0.0, 0.0, _S, 0, 0, 0, 0),
 }
-
 
 # Volatile Burst: splash radius from the unit's centre to a target's edge. Its damage is
 # the table's (20, +15 against Light: 35 to a Marine in every game version).
@@ -139,39 +177,77 @@ _BURST = {UnitType.BANELING: 2.2}
 # Resources: a MineralField holds 1800 minerals (Legacy of the Void), a geyser 2250 gas.
 _CONTENTS = {UnitType.MINERAL_FIELD: 1800, UnitType.VESPENE_GEYSER: 2250}
 
-# Train and construction times in game loops (reference/pysc2_facts.md §7).
-_BUILD_TIME = {UnitType.SCV: 272, UnitType.MARINE: 400, UnitType.SUPPLY_DEPOT: 480,
-               UnitType.BARRACKS: 1040, UnitType.REFINERY: 480, UnitType.COMMAND_CENTER: 1600}
+# Placement footprints in cells (width, height) of the types the Terran table lacks.
+_FOOTPRINT = {UnitType.MINERAL_FIELD: (2, 1), UnitType.VESPENE_GEYSER: (3, 3)}
 
-_SUPPLY = {UnitType.COMMAND_CENTER: 15, UnitType.SUPPLY_DEPOT: 8}
+# Auto-acquisition range (not in the API's data): the mini-games' units acquire within 5,
+# workers never; the Terran table's other armed units within max(weapon range, 5).
+ACQUIRE = 5.0
+WORKERS = (UnitType.SCV, UnitType.MULE)
 
-# Placement footprints in cells (width, height).
-_FOOTPRINT = {UnitType.MINERAL_FIELD: (2, 1), UnitType.VESPENE_GEYSER: (3, 3),
-              UnitType.COMMAND_CENTER: (5, 5), UnitType.SUPPLY_DEPOT: (2, 2),
-              UnitType.BARRACKS: (3, 3), UnitType.REFINERY: (3, 3)}
+_ATTRIBUTES = {"Light": _L, "Armored": _A, "Biological": _B, "Mechanical": _M,
+               "Structure": _S}
+_TARGETS = {"Ground": Targets.GROUND, "Air": Targets.AIR, "Any": Targets.GROUND | Targets.AIR}
+
+
+def _other_row(t: UnitType) -> dict:
+    (sc2_id, radius, speed, health, armor, damage, bonus, cooldown, rng, sight, acquire,
+     attributes, is_army, food, minerals, vespene) = _OTHERS[t]
+    return dict(sc2_id=sc2_id, radius=radius, speed=speed, max_health=health, max_energy=0,
+                start_energy=0, armor=armor, damage=damage, bonus=bonus,
+                bonus_attribute=_L if bonus else 0, attacks=1 if damage else 0,
+                targets=Targets.GROUND if damage else 0, cooldown=cooldown, range=rng,
+                sight=sight, acquire=acquire, attributes=attributes, flying=False,
+                is_army=is_army, food=food, mineral_cost=minerals, vespene_cost=vespene,
+                burst=_BURST.get(t, 0.0), contents=_CONTENTS.get(t, 0), build_time=0,
+                supply=0, footprint=_FOOTPRINT.get(t, (0, 0)))
+
+
+def _terran_row(t: UnitType, name: str) -> dict:
+    row = terran_data.unit(name)
+    weapons = row["weapons"]
+    if len(weapons) > 1:
+        raise ValueError(f"{name} has {len(weapons)} weapons; the engine models one")
+    weapon = weapons[0] if weapons else None
+    attributes = 0
+    for attribute in row["attributes"]:
+        attributes |= _ATTRIBUTES[attribute]
+    armed = weapon is not None and t not in WORKERS
+    return dict(
+        sc2_id=row["sc2_id"], radius=row["radius"], speed=row["speed"],
+        max_health=row["health"], max_energy=row["max_energy"],
+        start_energy=row["start_energy"], armor=row["armor"],
+        damage=weapon["damage"] if weapon else 0.0, bonus=weapon["bonus"] if weapon else 0.0,
+        bonus_attribute=_ATTRIBUTES.get(weapon and weapon["bonus_attribute"], 0),
+        attacks=weapon["attacks"] if weapon else 0,
+        targets=_TARGETS[weapon["targets"]] if weapon else 0,
+        cooldown=weapon["cooldown"] if weapon else 0.0,
+        range=weapon["range"] if weapon else 0.0, sight=row["sight"],
+        acquire=max(weapon["range"], ACQUIRE) if armed else 0.0, attributes=attributes,
+        flying=row["flying"], is_army=row["food"] > 0 and t not in WORKERS, food=row["food"],
+        mineral_cost=row["minerals"], vespene_cost=row["vespene"], burst=0.0, contents=0,
+        build_time=row["build_time"], supply=row["supply"], footprint=tuple(row["footprint"]))
 
 
 def _build() -> UnitData:
-    rows = [_TABLE[t] for t in UnitType]
-    cols = list(zip(*rows))
-    f32 = lambda c: np.asarray(c, np.float32)  # noqa: E731
-    i32 = lambda c: np.asarray(c, np.int32)  # noqa: E731
-    (sc2_id, radius, speed, health, shields, energy, armor, damage, bonus, cooldown, rng,
-     sight, acquire, attributes, is_army, food, minerals, vespene) = cols
+    rows = [_other_row(t) if game_name(t) is None else _terran_row(t, game_name(t))
+            for t in UnitType]
+    col = lambda name, dtype: np.asarray([r[name] for r in rows], dtype)  # noqa: E731
+    f32 = lambda name: col(name, np.float32)  # noqa: E731
+    i32 = lambda name: col(name, np.int32)  # noqa: E731
     return UnitData(
-        sc2_id=i32(sc2_id), radius=f32(radius),
-        speed=f32(speed) / LOOPS_PER_SECOND,
-        max_health=f32(health), max_shields=f32(shields), max_energy=f32(energy),
-        armor=f32(armor), damage=f32(damage), bonus_light=f32(bonus),
-        cooldown=f32(cooldown) * LOOPS_PER_SECOND,
-        range=f32(rng), sight=f32(sight), acquire=f32(acquire),
-        attributes=i32([int(a) for a in attributes]), is_army=np.asarray(is_army, bool),
-        food=f32(food), mineral_cost=i32(minerals), vespene_cost=i32(vespene),
-        burst=f32([_BURST.get(t, 0.0) for t in UnitType]),
-        contents=f32([_CONTENTS.get(t, 0) for t in UnitType]),
-        build_time=f32([_BUILD_TIME.get(t, 0) for t in UnitType]),
-        supply=f32([_SUPPLY.get(t, 0) for t in UnitType]),
-        footprint=i32([_FOOTPRINT.get(t, (0, 0)) for t in UnitType]))
+        sc2_id=i32("sc2_id"), radius=f32("radius"),
+        speed=f32("speed") / LOOPS_PER_SECOND,
+        max_health=f32("max_health"), max_shields=np.zeros(len(rows), np.float32),
+        max_energy=f32("max_energy"), start_energy=f32("start_energy"), armor=f32("armor"),
+        damage=f32("damage"), bonus=f32("bonus"), bonus_attribute=i32("bonus_attribute"),
+        attacks=i32("attacks"), targets=i32("targets"),
+        cooldown=f32("cooldown") * LOOPS_PER_SECOND,
+        range=f32("range"), sight=f32("sight"), acquire=f32("acquire"),
+        attributes=i32("attributes"), flying=col("flying", bool), is_army=col("is_army", bool),
+        food=f32("food"), mineral_cost=i32("mineral_cost"), vespene_cost=i32("vespene_cost"),
+        burst=f32("burst"), contents=f32("contents"), build_time=f32("build_time"),
+        supply=f32("supply"), footprint=i32("footprint"))
 
 
 UNIT_DATA = _build()
