@@ -55,15 +55,15 @@ def test_ppo_first_pass_at_lambda_one_is_the_a3c_gradient():
     ppo = make_actor_critic_loss(net, off_policy_correction="ppo")
     trajectory = _trajectory("fullyconv")
     # The behaviour policy is the network itself: every ratio is 1.
-    out = unroll(net, params, trajectory.observation, jax.tree.map(
-        lambda x: jnp.concatenate([x, x[:1]]), trajectory.action), trajectory.first)
+    out = jax.jit(lambda p: unroll(net, p, trajectory.observation, jax.tree.map(
+        lambda x: jnp.concatenate([x, x[:1]]), trajectory.action), trajectory.first))(params)
     mask = trajectory.observation["available_actions_mask"][:-1]
     behaviour = policy.log_prob(jax.tree.map(lambda x: x[:-1], out), trajectory.action,
                                 mask).total
-    trajectory = make_ppo_targets(net, gae_lambda=1.0)(params, trajectory._replace(
+    trajectory = jax.jit(make_ppo_targets(net, gae_lambda=1.0))(params, trajectory._replace(
         behaviour_log_prob=behaviour))
-    grad_a3c = jax.grad(lambda p: a3c(p, trajectory)[0])(params)
-    grad_ppo = jax.grad(lambda p: ppo(p, trajectory)[0])(params)
+    grad_a3c = jax.jit(jax.grad(lambda p: a3c(p, trajectory)[0]))(params)
+    grad_ppo = jax.jit(jax.grad(lambda p: ppo(p, trajectory)[0]))(params)
     for a, b in zip(jax.tree.leaves(grad_a3c), jax.tree.leaves(grad_ppo)):
         np.testing.assert_allclose(a, b, rtol=2e-4, atol=1e-6)
 

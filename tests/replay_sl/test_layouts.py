@@ -50,6 +50,7 @@ def test_every_packaged_map_is_point_symmetric_with_a_base_at_each_start(name):
         assert (np.linalg.norm(geysers - start, axis=1) < 10).sum() == 2
 
 
+@pytest.mark.slow
 def test_a_revised_map_keeps_its_most_common_revision():
     files = _files("Winter's Gate LE")
     lines = []

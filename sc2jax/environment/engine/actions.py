@@ -17,12 +17,17 @@ import jax.numpy as jnp
 import numpy as np
 
 from sc2jax.environment.engine import ui
-from sc2jax.environment.engine.availability import CARD_TABLE, available_actions
+from sc2jax.environment.engine.availability import (
+    CARD_TABLE,
+    MAKE_FUNCTIONS,
+    available_actions,
+)
 from sc2jax.environment.engine.render import Renderer, pick_unit
 from sc2jax.environment.engine.rules import commands, production
 from sc2jax.environment.engine.rules.geometry import clamp_camera
 from sc2jax.environment.engine.rules.state import NO_TARGET, EnvState, Order, Owner
 from sc2jax.environment.engine.rules.units import UNIT_DATA, UnitType
+from sc2jax.environment.engine.xla.fusion import set_static
 from sc2jax.environment.interface.dense import DenseAction
 from sc2jax.environment.interface.functions import FUNCTIONS, NUM_FUNCTIONS, FunctionType
 from sc2jax.environment.interface.observation_tables import ScoreCumulative
@@ -67,24 +72,17 @@ _BY_NAME = {
     "Smart_screen": Kind.SMART, "Smart_minimap": Kind.SMART,
     "HoldPosition_quick": Kind.HOLD, "Stop_quick": Kind.STOP,
     "Harvest_Gather_screen": Kind.GATHER, "Harvest_Return_quick": Kind.RETURN,
-    "Build_SupplyDepot_screen": Kind.BUILD, "Build_Barracks_screen": Kind.BUILD,
-    "Build_Refinery_screen": Kind.BUILD, "Build_CommandCenter_screen": Kind.BUILD,
-    "Train_SCV_quick": Kind.TRAIN, "Train_Marine_quick": Kind.TRAIN,
     "Rally_Workers_screen": Kind.RALLY, "Rally_Workers_minimap": Kind.RALLY,
     "Rally_Units_screen": Kind.RALLY, "Rally_Units_minimap": Kind.RALLY,
     "Cancel_quick": Kind.CANCEL, "Cancel_Last_quick": Kind.CANCEL_LAST,
     "select_idle_worker": Kind.SELECT_IDLE_WORKER, "build_queue": Kind.BUILD_QUEUE,
 }
-
-# The unit type a Build_* or Train_* function makes.
-_MAKES = {"Build_SupplyDepot_screen": UnitType.SUPPLY_DEPOT,
-          "Build_Barracks_screen": UnitType.BARRACKS, "Build_Refinery_screen": UnitType.REFINERY,
-          "Build_CommandCenter_screen": UnitType.COMMAND_CENTER,
-          "Train_SCV_quick": UnitType.SCV, "Train_Marine_quick": UnitType.MARINE}
+_BY_NAME.update({name: Kind.BUILD if name.startswith("Build_") else Kind.TRAIN
+                 for name in MAKE_FUNCTIONS})
 MAKES_TABLE = np.zeros(NUM_FUNCTIONS, np.int32)
 MAKE_ABILITY = np.zeros(len(UnitType), np.int32)
 """The ability id that builds or trains each unit type (0 where none does)."""
-for _name, _type in _MAKES.items():
+for _name, _type in MAKE_FUNCTIONS.items():
     MAKES_TABLE[FUNCTIONS[_name].id] = _type
     MAKE_ABILITY[_type] = FUNCTIONS[_name].ability_id
 
@@ -138,7 +136,7 @@ def apply_action(state: EnvState, action: DenseAction, renderer: Renderer,
                  card_table=CARD_TABLE, economy: bool = False) -> EnvState:
     """Applies one (unbatched) dense action and records `last_action`/`action_result`.
 
-    Each kind's branch returns (units, camera, result, minerals, next_tag), where result
+    Each kind's branch returns (units, camera, result, bank, next_tag), where result
     is 0 or the `ActionResult` of its failure. `economy` (static) compiles the branches
     of production (building, training, rallies, cancels, idle workers); maps without it
     cannot make these functions available.
@@ -154,16 +152,16 @@ def apply_action(state: EnvState, action: DenseAction, renderer: Renderer,
         kind = jnp.where(ctx.enemy_under, Order.ATTACK_UNIT, order)
         return commands.issue(units, kind, a.queued, ctx.point, target)
 
-    minerals, next_tag = state.minerals, state.next_tag
+    bank, next_tag = jnp.stack([state.minerals, state.vespene]), state.next_tag
     makes = jnp.asarray(MAKES_TABLE)[function]
 
     def keep_camera(result):
         new_units, ok = result
-        return (new_units, state.camera, jnp.where(ok, 0, int(ActionResult.Error)), minerals,
+        return (new_units, state.camera, jnp.where(ok, 0, int(ActionResult.Error)), bank,
                 next_tag)
 
-    def paid(new_units, result, new_minerals=minerals, new_tag=next_tag):
-        return new_units, state.camera, result, new_minerals, new_tag
+    def paid(new_units, result, new_bank=bank, new_tag=next_tag):
+        return new_units, state.camera, result, new_bank, new_tag
 
     def gather():
         return commands.issue(units, Order.GATHER, a.queued, ctx.point, ctx.picked)
@@ -182,28 +180,28 @@ def apply_action(state: EnvState, action: DenseAction, renderer: Renderer,
 
     def build():
         new_units, result = production.order_build(
-            units, minerals, renderer.buildable, makes, ctx.point,
+            units, bank, renderer.buildable, makes, ctx.point,
             ctx.picked, a.queued)
         return paid(new_units, result)
 
     def train():
-        new_units, new_minerals, result = production.enqueue(units, minerals, makes)
-        return paid(new_units, result, new_minerals)
+        new_units, new_bank, result = production.enqueue(units, bank, makes)
+        return paid(new_units, result, new_bank)
 
     def cancel():
-        new_units, new_minerals, new_tag, result = production.cancel_construction(
-            units, minerals, next_tag)
-        return paid(new_units, result, new_minerals, new_tag)
+        new_units, new_bank, new_tag, result = production.cancel_construction(
+            units, bank, next_tag)
+        return paid(new_units, result, new_bank, new_tag)
 
     def cancel_queued(index):
-        new_units, new_minerals, result = production.cancel_queued(units, minerals, index)
-        return paid(new_units, result, new_minerals)
+        new_units, new_bank, result = production.cancel_queued(units, bank, index)
+        return paid(new_units, result, new_bank)
 
     branches = [
         lambda: keep_camera((units, jnp.bool_(False))),  # UNSUPPORTED
         lambda: keep_camera((units, jnp.bool_(True))),  # NOOP
         lambda: (units, clamp_camera(renderer.geometry, ctx.minimap_point), jnp.int32(0),
-                 minerals, next_tag),
+                 bank, next_tag),
         lambda: keep_camera(ui.select_point(units, ctx.on_screen, ctx.picked,
                                             a.select_point_act)),
         lambda: keep_camera(ui.select_rect(units, ctx.pixel_pos, ctx.pixel_radius,
@@ -232,14 +230,19 @@ def apply_action(state: EnvState, action: DenseAction, renderer: Renderer,
         branches = branches[:Kind.BUILD]
     kind = jnp.where(available, jnp.asarray(KIND_TABLE)[function], Kind.UNSUPPORTED)
     kind = jnp.where(kind < len(branches), kind, Kind.UNSUPPORTED)
-    new_units, camera, result, new_minerals, new_tag = jax.lax.switch(
+    new_units, camera, result, new_bank, new_tag = jax.lax.switch(
         kind, [lambda _, b=b: b() for b in branches], None)
     ok = result == 0
     executed = available & ok & (function != FUNCTIONS.no_op.id)
     result = jnp.where(available, result, int(ActionResult.NotSupported))
-    spent = state.minerals - new_minerals
+    spent, cumulative = bank - new_bank, state.score_cumulative
     return state.replace(
-        units=new_units, camera=camera, minerals=new_minerals, next_tag=new_tag,
-        score_cumulative=state.score_cumulative.at[ScoreCumulative.spent_minerals].add(spent),
+        units=new_units, camera=camera, minerals=new_bank[0], vespene=new_bank[1],
+        next_tag=new_tag,
+        score_cumulative=set_static(cumulative, {
+            int(ScoreCumulative.spent_minerals): cumulative[ScoreCumulative.spent_minerals]
+            + spent[0],
+            int(ScoreCumulative.spent_vespene): cumulative[ScoreCumulative.spent_vespene]
+            + spent[1]}),
         last_action=jnp.where(executed, function, -1).astype(jnp.int32),
         action_result=jnp.where(function == FUNCTIONS.no_op.id, 0, result).astype(jnp.int32))

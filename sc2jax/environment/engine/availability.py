@@ -12,8 +12,20 @@ import numpy as np
 
 from sc2jax.environment.engine.rules import production
 from sc2jax.environment.engine.rules.state import Owner, Units
-from sc2jax.environment.engine.rules.units import UNIT_DATA, UnitType
+from sc2jax.environment.engine.rules.units import UNIT_DATA, UnitType, game_name
 from sc2jax.environment.interface.functions import ALWAYS, FUNCTIONS, NUM_FUNCTIONS
+
+
+def _make_function(unit_type: UnitType) -> str:
+    """The PySC2 function that builds (an SCV) or trains (a structure) `unit_type`."""
+    name = game_name(unit_type)
+    return (f"Build_{name}_screen" if production.MAKES[UnitType.SCV, unit_type]
+            else f"Train_{name}_quick")
+
+
+MAKE_FUNCTIONS = {_make_function(UnitType(t)): UnitType(t)
+                  for t in np.flatnonzero(production.MAKES.any(axis=0))}
+"""Each Build_* or Train_* function the simulator has -> the unit type it makes."""
 
 COMBAT_CARD = ("Attack_screen", "Attack_minimap", "HoldPosition_quick", "Move_screen",
                "Move_minimap", "Patrol_screen", "Patrol_minimap", "Smart_screen",
@@ -21,22 +33,35 @@ COMBAT_CARD = ("Attack_screen", "Attack_minimap", "HoldPosition_quick", "Move_sc
 
 SCV_CARD = COMBAT_CARD + ("Harvest_Gather_screen", "Harvest_Return_quick",
                           "Build_SupplyDepot_screen", "Build_Barracks_screen",
-                          "Build_Refinery_screen", "Build_CommandCenter_screen")
+                          "Build_Refinery_screen", "Build_CommandCenter_screen",
+                          "Build_EngineeringBay_screen", "Build_Bunker_screen",
+                          "Build_Factory_screen", "Build_Starport_screen")
+
+PRODUCER_CARD = ("Rally_Units_screen", "Rally_Units_minimap", "Smart_screen",
+                 "Smart_minimap", "Cancel_Last_quick")
 
 COMMAND_CARDS: dict[UnitType, tuple[str, ...]] = {
     UnitType.MARINE: COMBAT_CARD,
     UnitType.ZERGLING: COMBAT_CARD,
     UnitType.ROACH: COMBAT_CARD,
     UnitType.BANELING: COMBAT_CARD,
+    UnitType.REAPER: COMBAT_CARD,
+    UnitType.HELLION: COMBAT_CARD,
+    UnitType.VIKING_FIGHTER: COMBAT_CARD,
+    UnitType.MEDIVAC: ("HoldPosition_quick", "Move_screen", "Move_minimap", "Patrol_screen",
+                       "Patrol_minimap", "Smart_screen", "Smart_minimap", "Stop_quick"),
     UnitType.SCV: SCV_CARD,
     UnitType.COMMAND_CENTER: ("Train_SCV_quick", "Rally_Workers_screen", "Rally_Workers_minimap",
                               "Smart_screen", "Smart_minimap", "Cancel_Last_quick"),
-    UnitType.BARRACKS: ("Train_Marine_quick", "Rally_Units_screen", "Rally_Units_minimap",
-                        "Smart_screen", "Smart_minimap", "Cancel_Last_quick"),
+    UnitType.BARRACKS: ("Train_Marine_quick", "Train_Reaper_quick") + PRODUCER_CARD,
+    UnitType.FACTORY: ("Train_Hellion_quick",) + PRODUCER_CARD,
+    UnitType.STARPORT: ("Train_Medivac_quick", "Train_VikingFighter_quick") + PRODUCER_CARD,
 }
-"""Each unit type's command card, as general function names. Some buttons show only
-when they apply (`available_actions`): Return Cargo while carrying, Cancel Last while
-training, Build Barracks with a complete Supply Depot."""
+"""Each unit type's command card, as general function names, with the buttons the
+simulator has (docs/fidelity.md). Some buttons show only when they apply
+(`available_actions`): Return Cargo while carrying, Cancel Last while training, and a
+unit or structure once its requirement is met (Build Barracks with a complete Supply
+Depot)."""
 
 CONSTRUCTION_CARD = ("Cancel_quick",)
 """The card of an unfinished structure."""
@@ -54,6 +79,7 @@ def card_table(cards: dict[UnitType, tuple[str, ...]]) -> np.ndarray:
 CARD_TABLE = card_table(COMMAND_CARDS)
 """bool[num_unit_types, num_functions]."""
 
+_REQUIRING = {name: t for name, t in MAKE_FUNCTIONS.items() if production.REQUIRED[t]}
 _CONSTRUCTION_MASK = card_table({UnitType.NONE: CONSTRUCTION_CARD})[UnitType.NONE]
 _ALWAYS_MASK = np.zeros(NUM_FUNCTIONS, bool)
 _ALWAYS_MASK[[FUNCTIONS[name].id for name in ALWAYS]] = True
@@ -101,7 +127,6 @@ def available_actions(units: Units, card_table=CARD_TABLE):
     carrying = own_selected & (units.type == UnitType.SCV) & (units.cargo > 0)
     queue = units.queue[:, 0] != 0
     training = own_selected & units.complete & queue
-    depot = production.has_structure(units, UnitType.SUPPLY_DEPOT)
     # Single entries are set through constant one-hot masks, so that the whole mask is
     # one elementwise kernel, where an `.at[i].set` per entry is a kernel each (1.03x
     # the benchmark step at one environment, 1.015x at 64; docs/benchmarks.md).
@@ -112,9 +137,15 @@ def available_actions(units: Units, card_table=CARD_TABLE):
                         "select_idle_worker": idle_worker_count(units) > 0,
                         "build_queue": (count == 1) & training.any()}.items():
         mask = jnp.where(only(name), value, mask)
-    # Buttons that show only when they apply.
-    for name, condition in {"Harvest_Return_quick": carrying.any(),
-                            "Cancel_Last_quick": training.any(),
-                            "Build_Barracks_screen": depot}.items():
+    # Buttons that show only when they apply; a type's button once its requirement is
+    # met.
+    conditions = {"Harvest_Return_quick": carrying.any(), "Cancel_Last_quick": training.any()}
+    met = {}
+    for name, unit_type in _REQUIRING.items():
+        needed = int(production.REQUIRED[unit_type])
+        if needed not in met:
+            met[needed] = production.has_structure(units, needed)
+        conditions[name] = met[needed]
+    for name, condition in conditions.items():
         mask = mask & (~only(name) | condition)
     return mask

@@ -145,7 +145,7 @@ def harvesters(units: Units):
     count = lambda where, at: jnp.zeros(n, jnp.int32).at[  # noqa: E731
         jnp.where(where, at, n)].add(1, mode="drop")
     fields = units.alive & (units.type == UnitType.MINERAL_FIELD) & (units.contents > 0)
-    cc = own & units.complete & (units.type == UnitType.COMMAND_CENTER)
+    cc = own & units.complete & jnp.asarray(UNIT_DATA.town_hall)[units.type]
     refinery = own & units.complete & (units.type == UnitType.REFINERY)
     near_fields = jnp.sum(fields[None, :] & (dist <= BASE_RADIUS), axis=1)
     assigned = jnp.where(cc, count(on_minerals & (depot >= 0), depot),

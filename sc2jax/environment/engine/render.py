@@ -17,20 +17,20 @@ import numpy as np
 
 from sc2jax.environment.engine.rules.geometry import MapGeometry, cell_lookup, squared_length
 from sc2jax.environment.engine.rules.state import EnvState, Owner, Units, leading_slots
-from sc2jax.environment.engine.rules.units import UNIT_DATA, UnitType
+from sc2jax.environment.engine.rules.units import UNIT_DATA, Attribute, UnitType
 from sc2jax.environment.engine.xla.fusion import materialize
 from sc2jax.environment.interface.camera import Camera, Minimap
 from sc2jax.environment.interface.feature_units import ratio_255
 from sc2jax.environment.interface.features import DENSITY, PlayerRelative, Visibility
 from sc2jax.environment.interface.specs import ObservationFormat
 
-# Drawing order: higher layers are drawn over lower ones.
-_RENDER_LAYER = np.zeros(len(UnitType), np.int32)
-_RENDER_LAYER[[UnitType.MINERAL_SHARD, UnitType.MINERAL_FIELD, UnitType.VESPENE_GEYSER]] = 1
-_RENDER_LAYER[[UnitType.COMMAND_CENTER, UnitType.SUPPLY_DEPOT, UnitType.BARRACKS,
-               UnitType.REFINERY]] = 2
-_RENDER_LAYER[[UnitType.MARINE, UnitType.ZERGLING, UnitType.ROACH, UnitType.BANELING,
-               UnitType.SCV]] = 3
+# Drawing order: higher layers are drawn over lower ones: resources, structures, ground
+# units, flying units and lifted structures (the beacon, which has no health, under all).
+_STRUCTURE = (UNIT_DATA.attributes & Attribute.STRUCTURE) > 0
+_RESOURCE = (UNIT_DATA.contents > 0) | (np.arange(len(UnitType)) == UnitType.MINERAL_SHARD)
+_RENDER_LAYER = np.select(
+    [_RESOURCE, UNIT_DATA.flying, _STRUCTURE, UNIT_DATA.max_health > 0], [1, 4, 2, 3],
+    0).astype(np.int32)
 
 _PLAYER_RELATIVE = {Owner.SELF: PlayerRelative.SELF, Owner.ENEMY: PlayerRelative.ENEMY,
                     Owner.NEUTRAL: PlayerRelative.NEUTRAL}

@@ -294,19 +294,20 @@ class Simulator:
                                       team_split=game.team_split,
                                       jitter_slots=game.num_slots,
                                       sized=game.slot_sizes is not None, face=False)
-            minerals = state.minerals + events.minerals.astype(jnp.int32)
-            next_tag, spent = state.next_tag, jnp.int32(0)
+            bank = jnp.stack([state.minerals + events.minerals.astype(jnp.int32),
+                              state.vespene + events.vespene.astype(jnp.int32)])
+            next_tag, spent = state.next_tag, jnp.zeros(2, jnp.int32)
             if game.has_production:
-                economy = production.production_loop(units, minerals, next_tag, buildable)
-                units, minerals, next_tag = economy.units, economy.minerals, economy.next_tag
+                economy = production.production_loop(units, bank, next_tag, buildable)
+                units, bank, next_tag = economy.units, economy.bank, economy.next_tag
                 spent = economy.spent
                 events = events._replace(created=economy.created)
             vital = state.score_by_vital.reshape(-1)  # [3, 3]: life dealt, life taken.
             vital = set_static(vital, {0: vital[0] + events.damage_dealt,
                                        3: vital[3] + events.damage_taken}).reshape(3, 3)
             new = state.replace(units=units, key=key, game_loop=state.game_loop + 1,
-                                score_by_vital=vital, minerals=minerals, next_tag=next_tag,
-                                vespene=state.vespene + events.vespene.astype(jnp.int32))
+                                score_by_vital=vital, minerals=bank[0], vespene=bank[1],
+                                next_tag=next_tag)
             new = score.after_loop(new, state.units, events.died, events.minerals,
                                    events.vespene, spent)
             new = game.on_loop(new, events)

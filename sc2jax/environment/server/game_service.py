@@ -38,7 +38,7 @@ import numpy as np
 
 from sc2jax.environment.engine.minigames import MAPS, get_map
 from sc2jax.environment.engine.rules.state import Outcome
-from sc2jax.environment.engine.rules.units import UNIT_DATA, UnitType
+from sc2jax.environment.engine.rules.units import UNIT_DATA, UnitType, game_name
 from sc2jax.environment.engine.simulator import EnvParams
 from sc2jax.environment.interface import specs
 from sc2jax.environment.interface.dense import to_dense
@@ -59,12 +59,10 @@ MAX_ACTIONS_PER_STEP = 64
 grows with them, under the server's lock)."""
 
 SC2_NAMES = {
-    UnitType.MARINE: "Marine", UnitType.ZERGLING: "Zergling", UnitType.ROACH: "Roach",
-    UnitType.BANELING: "Baneling", UnitType.SCV: "SCV", UnitType.BEACON: "Beacon_Terran",
-    UnitType.MINERAL_SHARD: "NaturalMinerals", UnitType.MINERAL_FIELD: "MineralField",
-    UnitType.VESPENE_GEYSER: "VespeneGeyser", UnitType.COMMAND_CENTER: "CommandCenter",
-    UnitType.SUPPLY_DEPOT: "SupplyDepot", UnitType.BARRACKS: "Barracks",
-    UnitType.REFINERY: "Refinery",
+    UnitType.ZERGLING: "Zergling", UnitType.ROACH: "Roach", UnitType.BANELING: "Baneling",
+    UnitType.BEACON: "Beacon_Terran", UnitType.MINERAL_SHARD: "NaturalMinerals",
+    UnitType.MINERAL_FIELD: "MineralField", UnitType.VESPENE_GEYSER: "VespeneGeyser",
+    **{t: game_name(t) for t in UnitType if game_name(t) is not None},
 }
 """The game's names of the simulator's unit types (`data` replies)."""
 

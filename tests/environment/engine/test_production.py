@@ -1,6 +1,8 @@
 """Exact production scenes on CollectMineralsAndGas and BuildMarines: training, supply,
 construction and placement, gas, rallies, cancels, the restricted command cards, and the
-score (`production`, `score`).
+score (`production`, `score`); and each Terran unit and structure trained or built for
+the Terran data table's cost, build time, producer and requirement, on
+CollectMineralsAndGas's ground with its producers placed complete.
 
 At screen resolution 32 the camera (32.94, 25.00) shows 0.75 world units per pixel.
 Command Center (29.83, 28.01); SCV 50 minerals, 272 loops; Supply Depot 100, 480 loops;
@@ -16,11 +18,12 @@ import numpy as np
 import pytest
 
 from sc2jax.environment import FUNCTIONS, Simulator, to_dense
+from sc2jax.environment.engine import terran_data
 from sc2jax.environment.engine.minigames.economy import COMMAND_CENTER, GEYSERS, LEFT_FIELDS
 from sc2jax.environment.engine.rules import production, score
 from sc2jax.environment.engine.rules.dynamics import game_loop
 from sc2jax.environment.engine.rules.state import Order, Owner, first_slots, place
-from sc2jax.environment.engine.rules.units import UnitType
+from sc2jax.environment.engine.rules.units import UnitType, game_name
 from sc2jax.environment.interface.observation_tables import Player, ScoreCumulative
 from sc2jax.environment.interface.protocol_enums import ActionResult
 from tests.environment.helpers import PARAMS, SMALL, assert_trees_equal, compiled, small_sim
@@ -379,8 +382,141 @@ def test_first_slots_is_nonzero_and_the_economy_loop_has_no_scatter():
         units, _ = game_loop(units, key, game.geometry.playable, workers=True, combat=False,
                              colliders=game.collider_slots, field_slots=game.field_slots,
                              sized=True)
-        return production.production_loop(units, jnp.int32(50), jnp.int32(1),
+        return production.production_loop(units, jnp.array([50, 0], jnp.int32), jnp.int32(1),
                                           jnp.asarray(game.geometry.buildable))
 
     hlo = jax.jit(loop).lower(state.units, state.key).compile().as_text()
     assert not re.search(r"= \S+ scatter", hlo)
+
+
+# The Terran data table's units and structures.
+
+PRODUCER_SITE = (37.5, 25.5)  # Clear of the SCVs, the Command Center and the fields.
+DEPOTS = [(UnitType.SUPPLY_DEPOT, (36.0, 34.0)), (UnitType.SUPPLY_DEPOT, (38.0, 34.0))]
+TRAINED = {UnitType.MARINE: UnitType.BARRACKS, UnitType.REAPER: UnitType.BARRACKS,
+           UnitType.HELLION: UnitType.FACTORY, UnitType.MEDIVAC: UnitType.STARPORT,
+           UnitType.VIKING_FIGHTER: UnitType.STARPORT}
+BUILT = (UnitType.SUPPLY_DEPOT, UnitType.BARRACKS, UnitType.FACTORY, UnitType.STARPORT,
+         UnitType.ENGINEERING_BAY, UnitType.BUNKER, UnitType.COMMAND_CENTER)
+
+
+def row(unit_type):
+    return terran_data.unit(game_name(unit_type))
+
+
+def test_the_producers_are_the_tables():
+    for unit, producer in TRAINED.items():
+        assert game_name(producer) in row(unit)["producers"]
+        assert production.MAKES[producer, unit]
+    for structure in BUILT:
+        assert row(structure)["producers"] == ["SCV"]
+        assert production.MAKES[UnitType.SCV, structure]
+    assert UnitType(int(production.BUILDS[0])) in BUILT
+
+
+@pytest.mark.parametrize("unit", list(TRAINED), ids=lambda t: t.name)
+def test_each_unit_costs_and_trains_for_its_table_values(unit):
+    data = row(unit)
+    state, step = start()
+    state = _with_units(state, [(TRAINED[unit], PRODUCER_SITE)] + DEPOTS)
+    state = state.replace(minerals=jnp.int32(1000), vespene=jnp.int32(500))
+    state, ts = act(step, state, F.select_point("select", pixel(state, PRODUCER_SITE)))
+    train = F[f"Train_{game_name(unit)}_quick"]
+    assert train.id in available(ts)
+    before = len(slots(state, unit))
+    state, ts = act(step, state, train("now"))
+    assert result(ts) == 0
+    assert (int(state.minerals), int(state.vespene)) == (1000 - data["minerals"],
+                                                         500 - data["vespene"])
+    spent = ts.observation["score_cumulative"]
+    assert (spent[ScoreCumulative.spent_minerals], spent[ScoreCumulative.spent_vespene]) == (
+        data["minerals"], data["vespene"])
+    # Queued at the start of a step of 8 loops, whose loops train it: it appears in the
+    # step where its build time is reached, and not before.
+    loops = int(data["build_time"])
+    assert loops % 8 == 0
+    state, _ = wait(step, state, loops // 8 - 2)
+    assert len(slots(state, unit)) == before
+    state, _ = wait(step, state, 1)
+    assert len(slots(state, unit)) == before + 1
+
+
+def test_too_little_vespene_is_not_enough_vespene():
+    state, step = start()
+    state = _with_units(state, [(UnitType.STARPORT, PRODUCER_SITE)] + DEPOTS)
+    state = state.replace(minerals=jnp.int32(1000), vespene=jnp.int32(99))
+    state, _ = act(step, state, F.select_point("select", pixel(state, PRODUCER_SITE)))
+    state, ts = act(step, state, F.Train_Medivac_quick("now"))
+    assert result(ts) == ActionResult.NotEnoughVespene
+    assert (int(state.minerals), int(state.vespene)) == (1000, 99)
+
+
+@pytest.mark.parametrize("structure", [UnitType.FACTORY, UnitType.STARPORT,
+                                       UnitType.ENGINEERING_BAY, UnitType.BUNKER],
+                         ids=lambda t: t.name)
+def test_each_structure_needs_its_table_requirement(structure):
+    needed = UnitType[_snake(row(structure)["requires"])]
+    build = F[f"Build_{game_name(structure)}_screen"]
+    state, step = start()
+    if needed == UnitType.COMMAND_CENTER:  # The map's Command Center: gone, then back.
+        cc = slots(state, UnitType.COMMAND_CENTER)[0]
+        units = state.units
+        state = state.replace(units=units.replace(alive=units.alive.at[cc].set(False)))
+        _, ts = select_scv(step, state)
+        assert build.id not in available(ts)
+        return
+    _, ts = select_scv(step, state)
+    assert build.id not in available(ts)
+    unfinished = _with_units(state, [(needed, PRODUCER_SITE)], complete=False)
+    _, ts = select_scv(step, unfinished)
+    assert build.id not in available(ts)
+    _, ts = select_scv(step, _with_units(state, [(needed, PRODUCER_SITE)]))
+    assert build.id in available(ts)
+
+
+def test_a_lowered_depot_and_an_orbital_command_count_for_requirements():
+    state, step = start()
+    _, ts = select_scv(step, _with_units(state, [(UnitType.SUPPLY_DEPOT_LOWERED, (36.0, 34.0))]))
+    assert F.Build_Barracks_screen.id in available(ts)
+    cc = slots(state, UnitType.COMMAND_CENTER)[0]
+    units = state.units
+    orbital = state.replace(units=units.replace(type=units.type.at[cc].set(
+        UnitType.ORBITAL_COMMAND)))
+    _, ts = select_scv(step, orbital)
+    assert F.Build_EngineeringBay_screen.id in available(ts)
+
+
+@pytest.mark.parametrize("structure", [UnitType.FACTORY, UnitType.ENGINEERING_BAY,
+                                       UnitType.BUNKER], ids=lambda t: t.name)
+def test_each_structure_costs_and_builds_for_its_table_values(structure):
+    data = row(structure)
+    site = (34.5, 33.5)
+    state, step = start()
+    state = _with_units(state, [(UnitType.BARRACKS, PRODUCER_SITE)])
+    state = state.replace(minerals=jnp.int32(1000), vespene=jnp.int32(500))
+    state, _ = select_scv(step, state)
+    build = F[f"Build_{game_name(structure)}_screen"]
+    state, ts = act(step, state, build("now", pixel(state, site)))
+    assert result(ts) == 0
+    for _ in range(30):
+        state, ts = wait(step, state, 1)
+        if len(slots(state, structure)):
+            break
+    placed = slots(state, structure)[0]
+    np.testing.assert_allclose(np.asarray(state.units.pos[placed]), site)
+    assert (int(state.minerals), int(state.vespene)) == (1000 - data["minerals"],
+                                                         500 - data["vespene"])
+    # Constructed one loop per game loop, for its build time, to full health.
+    remaining = data["build_time"] - float(state.units.progress[placed])
+    state, _ = wait(step, state, int(np.ceil(remaining / 8)) - 1)
+    assert not bool(state.units.complete[placed])
+    state, _ = wait(step, state, 1)
+    assert bool(state.units.complete[placed])
+    assert float(state.units.health[placed]) == data["health"]
+    builder = slots(state, UnitType.SCV)[0]
+    assert int(state.units.orders[builder, 0]) == Order.NONE
+
+
+def _snake(name: str) -> str:
+    """"EngineeringBay" -> "ENGINEERING_BAY"."""
+    return "".join("_" + c if c.isupper() and i else c for i, c in enumerate(name)).upper()

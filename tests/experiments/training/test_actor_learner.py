@@ -64,8 +64,8 @@ def test_unroll_emits_a_consistent_trajectory(agent):
         np.testing.assert_array_equal(narrow.unpacked(last, key, layers),
                                       actor.timestep.observation[key])
     # The behaviour log-probability is the network's log-probability of the action.
-    out = network_unroll(agent.network, state.learner.params,
-                         jax.tree.map(lambda x: x[:k], traj.observation))
+    out = jax.jit(lambda params, obs: network_unroll(agent.network, params, obs))(
+        state.learner.params, jax.tree.map(lambda x: x[:k], traj.observation))
     log_pi = policy.log_prob(out, traj.action, traj.observation["available_actions_mask"][:k])
     np.testing.assert_allclose(traj.behaviour_log_prob, log_pi.total, rtol=1e-4, atol=1e-4)
     # Every action was available where it was taken.

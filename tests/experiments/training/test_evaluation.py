@@ -90,6 +90,7 @@ def test_combat_scripts_focus_fire_and_stutter_step():
     assert int(policy(key, _combat_obs(far, 24)).function) == FUNCTIONS.Attack_screen.id
 
 
+@pytest.mark.slow
 def test_scripted_move_to_beacon_plays_like_a_human():
     # A marine walks 2.25 units per game second: 270 units in the 120 s episode. Beacons
     # lie at least 5 (about 9 on average) apart, so walking straight from beacon to
@@ -119,6 +120,7 @@ def test_the_random_policy_plays_an_economy_map_without_leaking_a_tracer():
     assert stats.steps.tolist() == [105, 105]  # 6,720 loops, in steps of 64
 
 
+@pytest.mark.slow
 def test_evaluate_rejects_bad_flags_before_compiling(tmp_path):
     out = subprocess.run([sys.executable, "-m", "sc2jax.experiments.evaluate", "--map=Nope"],
                          capture_output=True, text=True, timeout=120)

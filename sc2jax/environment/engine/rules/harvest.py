@@ -7,7 +7,7 @@ The game's cycle (reference/pysc2_facts.md §7), run once per game loop by
 - touching it (edge to edge within `REACH`), and if no other worker is mining it, it
   mines for 2.786 game seconds (`MINING_LOOPS`), then takes 5 minerals from the field
   (fewer if fewer are left), pauses 0.5 game seconds (`LEAVE_LOOPS`) and RETURNs them to
-  the nearest own complete Command Center;
+  the nearest own complete town hall (a landed Command Center or Orbital Command);
 - touching the Command Center deposits the cargo, and the worker goes back to GATHER
   from the same field;
 - a worker that finds its field taken waits, or moves on to a nearby field with fewer
@@ -36,7 +36,7 @@ from sc2jax.environment.engine.rules.state import (
     leading_slots,
     targeted_by,
 )
-from sc2jax.environment.engine.rules.units import LOOPS_PER_SECOND, UnitType
+from sc2jax.environment.engine.rules.units import LOOPS_PER_SECOND, UNIT_DATA, UnitType
 from sc2jax.environment.engine.xla.fusion import first_argmin
 from sc2jax.environment.engine.xla.lazy import lazy_where
 
@@ -71,15 +71,20 @@ DEPOT_SLOTS = 4
 player built them) measures to every slot."""
 
 
+def _town_hall(types):
+    """bool[...]: the types (int32[...]) workers return cargo to."""
+    return jnp.asarray(UNIT_DATA.town_hall)[types]
+
+
 def nearest_depot(units: Units, eps=1e-12):
-    """int32[N]: each unit's nearest own complete Command Center (by centre distance,
+    """int32[N]: each unit's nearest own complete town hall (by centre distance,
     `distances` with `eps`; the lowest slot on a tie), or -1.
 
     It measures to the first `DEPOT_SLOTS` Command Centers ([N, 4] distances), and to
     every slot ([N, N]) only in an environment that has more (`lazy_where`).
     """
     n = units.num_slots
-    depot = units.complete & (units.type == UnitType.COMMAND_CENTER)
+    depot = units.complete & _town_hall(units.type)
     first = first_slots(depot, DEPOT_SLOTS)
     return lazy_where(depot.sum() > DEPOT_SLOTS,
                       lambda u: _nearest_of(u, jnp.arange(n), eps), units,
@@ -91,7 +96,7 @@ def _nearest_of(units: Units, slots, eps):
     ascending; N marks none)."""
     n = units.num_slots
     at = jnp.clip(slots, 0, n - 1)
-    depot = (slots < n) & units.complete[at] & (units.type[at] == UnitType.COMMAND_CENTER)
+    depot = (slots < n) & units.complete[at] & _town_hall(units.type[at])
     mine = depot[None, :] & (units.owner[:, None] == units.owner[at][None, :])
     dist = distances(units.pos, units.pos[at], eps)
     nearest = at[first_argmin(jnp.where(mine, dist, jnp.inf))].astype(jnp.int32)

@@ -1,12 +1,15 @@
 """Production: supply, training queues, and structures that SCVs place and construct.
 
-The Terran rules of the economy mini-games (reference/pysc2_facts.md §7), vectorised over
-the N unit slots:
+The Terran rules of the economy mini-games (reference/pysc2_facts.md §7) and of the full
+game, with the costs, times, producers and requirements of the Terran data table
+(`terran_data`), vectorised over the N unit slots:
 
 - **Supply.** Complete Command Centers provide 15 food and complete Supply Depots 8 (at
   most 200). Food used counts the living units and the units in training.
-- **Training.** `Train_SCV` (Command Center) and `Train_Marine` (Barracks) pay the cost
-  when queued (`enqueue`); a queue holds 5. The first unit of a queue trains once the
+- **Training.** `Train_*` at a structure that trains the unit (`MAKES`: the Command
+  Center SCVs, the Barracks Marines and Reapers, the Factory Hellions, the Starport
+  Medivacs and Vikings) pays the minerals and vespene when queued (`enqueue`); a queue
+  holds 5. The first unit of a queue trains once the
   supply allows it (else it waits), for its build time, and appears beside the producer,
   on the side of the rally point; it walks to the rally, and a new SCV rallied to a
   resource gathers from it. Cancelling a queued unit refunds its cost.
@@ -19,7 +22,10 @@ the N unit slots:
   buildable cells and must not overlap another structure or resource footprint (own units
   standing there are pushed aside); a Command Center also keeps 3 cells away from
   resources; a Refinery goes on a free Vespene Geyser, which it replaces.
-- **Tech.** The Barracks needs a complete Supply Depot.
+- **Tech.** A type needs a complete structure (`REQUIRED`: the Barracks a Supply Depot,
+  the Factory and the Bunker a Barracks, the Starport a Factory, the Engineering Bay a
+  Command Center), or one that counts as it (`COUNTS_AS`: an Orbital Command is a
+  Command Center).
 
 The map's creation of units goes through free (dead) slots; with none free, a trained
 unit waits in the queue and a structure is not placed (docs/fidelity.md).
@@ -33,6 +39,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
+from sc2jax.environment.engine import terran_data
 from sc2jax.environment.engine.rules import commands
 from sc2jax.environment.engine.rules.dynamics import pop_order
 from sc2jax.environment.engine.rules.geometry import squared_length
@@ -46,7 +53,7 @@ from sc2jax.environment.engine.rules.state import (
     place_where,
     targeted_by,
 )
-from sc2jax.environment.engine.rules.units import UNIT_DATA, UnitType
+from sc2jax.environment.engine.rules.units import UNIT_DATA, Attribute, UnitType, game_name
 from sc2jax.environment.engine.xla.lazy import lazy_where
 from sc2jax.environment.interface.protocol_enums import ActionResult
 
@@ -58,19 +65,40 @@ CANCEL_REFUND = 0.75
 RESOURCE_CLEARANCE = 3
 """Cells a Command Center's footprint keeps from mineral fields and geysers."""
 
-TRAINS = {UnitType.COMMAND_CENTER: UnitType.SCV, UnitType.BARRACKS: UnitType.MARINE}
-"""Producer type -> the unit type it trains."""
-BUILDS = (UnitType.SUPPLY_DEPOT, UnitType.BARRACKS, UnitType.REFINERY, UnitType.COMMAND_CENTER)
-"""The structures an SCV builds."""
-REQUIRES = {UnitType.BARRACKS: UnitType.SUPPLY_DEPOT}
-"""Structure -> the complete structure it needs."""
+# What the Terran data table says each type makes, needs and counts as; types the table
+# does not hold make nothing. Add-ons are not built yet, nor the Marauder and the Siege
+# Tank that need one, nor the MULE (called down for energy).
+_NOT_YET = (UnitType.MARAUDER, UnitType.SIEGE_TANK, UnitType.MULE, UnitType.BARRACKS_TECH_LAB,
+            UnitType.BARRACKS_REACTOR, UnitType.FACTORY_TECH_LAB, UnitType.FACTORY_REACTOR,
+            UnitType.STARPORT_TECH_LAB, UnitType.STARPORT_REACTOR)
 
-_TRAINED = np.zeros(len(UnitType), np.int32)
-for _producer, _unit in TRAINS.items():
-    _TRAINED[_producer] = _unit
-_REQUIRED = np.zeros(len(UnitType), np.int32)
-for _structure, _needed in REQUIRES.items():
-    _REQUIRED[_structure] = _needed
+
+def _terran_tables():
+    types = {game_name(t): t for t in UnitType if game_name(t) is not None}
+    makes = np.zeros((len(UnitType), len(UnitType)), bool)
+    required = np.zeros(len(UnitType), np.int32)
+    counts_as = np.arange(len(UnitType), dtype=np.int32)
+    for name, t in types.items():
+        row = terran_data.unit(name)
+        if t not in _NOT_YET:
+            for producer in row["producers"]:
+                makes[types[producer], t] = True
+        if row["requires"]:
+            required[t] = types[row["requires"]]
+        if row["tech_alias"] in types:
+            counts_as[t] = types[row["tech_alias"]]
+    return makes, required, counts_as
+
+
+MAKES, REQUIRED, COUNTS_AS = _terran_tables()
+"""MAKES: bool[T, T], [producer, made]: a structure trains the unit, or an SCV builds
+the structure. REQUIRED: int32[T] the structure a type needs (0: none). COUNTS_AS:
+int32[T] the type each counts as for requirements (a lowered Supply Depot or a flying
+Barracks as itself landed, an Orbital Command as a Command Center)."""
+TRAINERS = MAKES.any(axis=1) & ((UNIT_DATA.attributes & Attribute.STRUCTURE) > 0)
+"""bool[T]: the structures that train units (into a queue, with a rally)."""
+BUILDS = tuple(UnitType(t) for t in np.flatnonzero(MAKES[UnitType.SCV]))
+"""The structures an SCV builds."""
 
 
 def _column(name, types):
@@ -97,13 +125,14 @@ def food_used(units: Units):
 
 
 def has_structure(units: Units, unit_type):
-    """bool: the player has a complete structure of `unit_type` (int32)."""
-    return jnp.any(_own(units) & units.complete & (units.type == unit_type))
+    """bool: the player has a complete structure that counts as `unit_type` (int32)."""
+    counts_as = jnp.asarray(COUNTS_AS)[units.type]
+    return jnp.any(_own(units) & units.complete & (counts_as == unit_type))
 
 
 def tech_ok(units: Units, unit_type):
-    """bool: the tech requirement of building `unit_type` (int32) is met."""
-    needed = jnp.asarray(_REQUIRED)[unit_type]
+    """bool: the tech requirement of making `unit_type` (int32) is met."""
+    needed = jnp.asarray(REQUIRED)[unit_type]
     return (needed == 0) | has_structure(units, needed)
 
 
@@ -116,12 +145,18 @@ def creators(units: Units):
     game loops with no new action: producers (one unit per build time) and SCVs with a
     Build order (they place one structure, then construct it for its build time)."""
     builds = jnp.any(units.orders == Order.BUILD, axis=1)
-    return _own(units) & ((trained_type(units) != 0) | builds)
+    return _own(units) & (trains(units) | builds)
 
 
-def trained_type(units: Units):
-    """int32[N]: the unit type each slot trains (0 for non-producers)."""
-    return jnp.asarray(_TRAINED)[units.type]
+def trains(units: Units):
+    """bool[N]: the slots holding structures that train units."""
+    return jnp.asarray(TRAINERS)[units.type]
+
+
+def cost(unit_type):
+    """int32[..., 2]: the minerals and vespene making `unit_type` (int32[...]) costs."""
+    return jnp.stack([_column("mineral_cost", unit_type),
+                      _column("vespene_cost", unit_type)], axis=-1).astype(jnp.int32)
 
 
 def snap(unit_type, point):
@@ -187,10 +222,13 @@ def placement(units: Units, buildable, unit_type, site, target=NO_TARGET):
                      ground_result).astype(jnp.int32)
 
 
-def affordable(minerals, unit_type):
-    """int32 `ActionResult`: 0, or NotEnoughMinerals."""
-    return jnp.where(minerals >= _column("mineral_cost", unit_type), 0,
-                     int(ActionResult.NotEnoughMinerals)).astype(jnp.int32)
+def affordable(bank, unit_type):
+    """int32 `ActionResult`: 0, NotEnoughMinerals or NotEnoughVespene, for making
+    `unit_type` with `bank` (int32[2] minerals and vespene)."""
+    price = cost(unit_type)
+    return jnp.where(bank[0] < price[0], int(ActionResult.NotEnoughMinerals),
+                     jnp.where(bank[1] < price[1], int(ActionResult.NotEnoughVespene),
+                               0)).astype(jnp.int32)
 
 
 def free_slots(units: Units, count: int):
@@ -203,47 +241,54 @@ class Economy(NamedTuple):
 
     Attributes:
       units: the units.
-      minerals: int32 the player's minerals.
+      bank: int32[2] the player's minerals and vespene.
       next_tag: int32 the next unit tag.
-      spent: int32 minerals spent this loop on structures.
+      spent: int32[2] minerals and vespene spent this loop on structures.
       created: bool[N] slots where a unit was trained or a structure placed this loop.
     """
 
     units: Units
-    minerals: jax.Array
+    bank: jax.Array
     next_tag: jax.Array
     spent: jax.Array
     created: jax.Array
 
 
-def enqueue(units: Units, minerals, unit_type):
+def enqueue(units: Units, bank, unit_type):
     """`Train_*`: queues one unit of `unit_type` at the selected producer of it with the
     shortest queue, paying its cost.
 
+    Args:
+      units: the units.
+      bank: int32[2] the player's minerals and vespene.
+      unit_type: int32 the unit.
+
     Returns:
-      (units, minerals, result int32 `ActionResult`).
+      (units, bank, result int32 `ActionResult`).
     """
     q = jnp.arange(BUILD_QUEUE)
     length = jnp.sum(units.queue != 0, axis=1)
     producer = (units.selected & _own(units) & units.complete
-                & (trained_type(units) == unit_type))
+                & jnp.asarray(MAKES)[units.type, unit_type])
     room = producer & (length < BUILD_QUEUE)
     slot = jnp.argmin(jnp.where(room, length, BUILD_QUEUE + 1))
     food = _column("food", unit_type)
+    payable = affordable(bank, unit_type)
     result = jnp.where(
         ~producer.any(), int(ActionResult.Error),
-        jnp.where(~room.any(), int(ActionResult.QueueIsFull),
-                  jnp.where(affordable(minerals, unit_type) != 0,
-                            int(ActionResult.NotEnoughMinerals),
-                            jnp.where(food_used(units) + food > food_cap(units),
-                                      int(ActionResult.NotEnoughFood), 0)))).astype(jnp.int32)
+        jnp.where(~tech_ok(units, unit_type), int(ActionResult.TechRequirementsNotMet),
+                  jnp.where(~room.any(), int(ActionResult.QueueIsFull),
+                            jnp.where(payable != 0, payable,
+                                      jnp.where(food_used(units) + food > food_cap(units),
+                                                int(ActionResult.NotEnoughFood), 0))))
+    ).astype(jnp.int32)
     ok = result == 0
     at = ok & (jnp.arange(units.num_slots)[:, None] == slot) & (q[None, :] == length[slot])
     units = units.replace(queue=jnp.where(at, unit_type, units.queue))
-    return units, minerals - jnp.where(ok, _column("mineral_cost", unit_type), 0), result
+    return units, bank - jnp.where(ok, cost(unit_type), 0), result
 
 
-def order_build(units: Units, minerals, buildable, unit_type, point, picked, queued):
+def order_build(units: Units, bank, buildable, unit_type, point, picked, queued):
     """`Build_*`: the selected SCV nearest the site is ordered to build `unit_type` there.
 
     The site is `point` snapped to the grid, or for a Refinery the geyser `picked` (the
@@ -252,7 +297,7 @@ def order_build(units: Units, minerals, buildable, unit_type, point, picked, que
 
     Args:
       units: the units.
-      minerals: int32 the player's minerals.
+      bank: int32[2] the player's minerals and vespene.
       buildable: bool[H, W] the map's buildable cells.
       unit_type: int32 the structure.
       point: float32[2] the clicked world point.
@@ -270,10 +315,10 @@ def order_build(units: Units, minerals, buildable, unit_type, point, picked, que
     distance = squared_length(units.pos - site)
     builder = jnp.argmin(jnp.where(builders, distance, jnp.inf))
     placed = placement(units, buildable, unit_type, site, target)
+    payable = affordable(bank, unit_type)
     result = jnp.where(~builders.any(), int(ActionResult.Error), jnp.where(
         ~tech_ok(units, unit_type), int(ActionResult.TechRequirementsNotMet),
-        jnp.where(affordable(minerals, unit_type) != 0, int(ActionResult.NotEnoughMinerals),
-                  placed))).astype(jnp.int32)
+        jnp.where(payable != 0, payable, placed))).astype(jnp.int32)
     one = units.replace(selected=jnp.arange(n) == builder)
     ordered, _ = commands.issue(one, Order.BUILD, queued, site, target, unit_type)
     ordered = ordered.replace(selected=units.selected)
@@ -288,7 +333,7 @@ def set_rally(units: Units, point, picked):
     Returns:
       (units, ok bool).
     """
-    producers = units.selected & _own(units) & (trained_type(units) != 0)
+    producers = units.selected & _own(units) & trains(units)
     return units.replace(
         rally=jnp.where(producers[:, None], point, units.rally),
         rally_unit=jnp.where(producers, picked, units.rally_unit),
@@ -307,13 +352,13 @@ def _remove_queued(units: Units, producer, index):
                          queue_work=units.queue_work.at[producer].set(work)), removed
 
 
-def cancel_queued(units: Units, minerals, index=None):
+def cancel_queued(units: Units, bank, index=None):
     """`Cancel_Last` (index None: the last unit of the selected producer with the longest
     queue) or the `build_queue` panel (the unit at `index` of the single selected
-    producer's queue); refunds its cost.
+    producer's queue); refunds its cost to `bank` (int32[2] minerals and vespene).
 
     Returns:
-      (units, minerals, result int32 `ActionResult`).
+      (units, bank, result int32 `ActionResult`).
     """
     length = jnp.sum(units.queue != 0, axis=1)
     chosen = units.selected & _own(units) & (length > 0)
@@ -322,20 +367,21 @@ def cancel_queued(units: Units, minerals, index=None):
     ok = chosen.any() & (item >= 0) & (item < length[producer])
     new, removed = _remove_queued(units, producer, jnp.clip(item, 0, BUILD_QUEUE - 1))
     units = jax.tree_util.tree_map(lambda a, b: jnp.where(ok, a, b), new, units)
-    refund = jnp.where(ok, _column("mineral_cost", removed), 0)
-    return units, minerals + refund, jnp.where(ok, 0, int(ActionResult.Error)).astype(jnp.int32)
+    refund = jnp.where(ok, cost(removed), 0)
+    return units, bank + refund, jnp.where(ok, 0, int(ActionResult.Error)).astype(jnp.int32)
 
 
-def cancel_construction(units: Units, minerals, next_tag):
+def cancel_construction(units: Units, bank, next_tag):
     """`Cancel` on the selected unfinished structures: they are removed and refund 75%
-    of their cost; a cancelled Refinery gives its geyser back.
+    of their cost to `bank` (int32[2] minerals and vespene); a cancelled Refinery gives
+    its geyser back.
 
     Returns:
-      (units, minerals, next_tag, result int32 `ActionResult`).
+      (units, bank, next_tag, result int32 `ActionResult`).
     """
     doomed = units.selected & _own(units) & ~units.complete
-    refund = jnp.sum(jnp.where(doomed, jnp.floor(
-        CANCEL_REFUND * _column("mineral_cost", units.type)), 0)).astype(jnp.int32)
+    refund = jnp.sum(jnp.where(doomed[:, None], jnp.floor(
+        CANCEL_REFUND * cost(units.type)), 0), axis=0).astype(jnp.int32)
     refineries = doomed & (units.type == UnitType.REFINERY)
     units = units.replace(alive=units.alive & ~doomed, selected=units.selected & ~doomed)
     # The geysers come back in the Refineries' own slots (tagged as if every slot got
@@ -345,34 +391,33 @@ def cancel_construction(units: Units, minerals, next_tag):
                           units.pos, next_tag + rows)
     tag = next_tag + units.num_slots
     contents = jnp.where(refineries, units.contents, geysers.contents)
-    return (geysers.replace(contents=contents), minerals + refund, tag,
+    return (geysers.replace(contents=contents), bank + refund, tag,
             jnp.where(doomed.any(), 0, int(ActionResult.Error)).astype(jnp.int32))
 
 
-def production_loop(units: Units, minerals, next_tag, buildable) -> Economy:
+def production_loop(units: Units, bank, next_tag, buildable) -> Economy:
     """One game loop of production, after the loop's movement: structures placed by
     arriving SCVs, construction, and training.
 
     Args:
       units: the units.
-      minerals: int32 the player's minerals.
+      bank: int32[2] the player's minerals and vespene.
       next_tag: int32 the next unit tag.
       buildable: bool[H, W] the map's buildable cells.
     """
-    units, minerals, next_tag, spent, placed = _place_arrivals(units, minerals, next_tag,
-                                                               buildable)
+    units, bank, next_tag, spent, placed = _place_arrivals(units, bank, next_tag, buildable)
     units = _construct(units)
     units, next_tag, trained = _train(units, next_tag)
-    return Economy(units, minerals, next_tag, spent, placed | trained)
+    return Economy(units, bank, next_tag, spent, placed | trained)
 
 
-def _place_arrivals(units: Units, minerals, next_tag, buildable):
+def _place_arrivals(units: Units, bank, next_tag, buildable):
     """The first (lowest-slot) SCV to reach its BUILD site places its structure, if the
     site, the cost, the tech and a free slot allow; otherwise its order fails. One
     placement per loop: a second builder re-checks its site a loop later.
 
     Returns:
-      (units, minerals, next_tag, spent, placed bool[N] the new structure's slot).
+      (units, bank, next_tag, spent int32[2], placed bool[N] the new structure's slot).
     """
     n = units.num_slots
     rows = jnp.arange(n)
@@ -385,8 +430,8 @@ def _place_arrivals(units: Units, minerals, next_tag, buildable):
     kind_b, site_b, geyser = kind[builder], site[builder], units.order_unit[builder, 0]
     slot = free_slots(units, 1)[0]
     ok = (arrived.any() & (placement(units, buildable, kind_b, site_b, geyser) == 0)
-          & (affordable(minerals, kind_b) == 0) & tech_ok(units, kind_b) & (slot < n))
-    cost = jnp.where(ok, _column("mineral_cost", kind_b), 0)
+          & (affordable(bank, kind_b) == 0) & tech_ok(units, kind_b) & (slot < n))
+    paid = jnp.where(ok, cost(kind_b), 0)
     # The structure, unfinished; a Refinery replaces its geyser and takes its gas.
     safe_geyser = jnp.clip(geyser, 0, n - 1)
     new = place_where(units, ok & (rows == slot), kind_b, Owner.SELF, site_b, next_tag)
@@ -410,7 +455,7 @@ def _place_arrivals(units: Units, minerals, next_tag, buildable):
     units = jax.tree_util.tree_map(lambda a, b: jnp.where(ok, a, b), new, units)
     failed = arrived & is_builder & ~ok
     units = pop_order(units, failed)
-    return units, minerals - cost, next_tag + ok.astype(jnp.int32), cost, ok & (rows == slot)
+    return units, bank - paid, next_tag + ok.astype(jnp.int32), paid, ok & (rows == slot)
 
 
 def _construct(units: Units) -> Units:

@@ -11,7 +11,7 @@ the map's curriculum score (`EnvState.score`); the rest follow the game's defini
   and structures (unfinished ones included);
 - killed_value_units: the cost of the enemy units killed;
 - idle_worker_time / idle_production_time: game loops summed over idle SCVs and over
-  complete producers (Command Centers, Barracks) with an empty queue.
+  complete producers (structures that train) with an empty queue.
 
 The **Blizzard score** is the paper's (§3): the resources the player has, plus the value of
 its units and structures alive or in progress (units queued for training included), plus
@@ -23,7 +23,7 @@ from __future__ import annotations
 import jax.numpy as jnp
 import numpy as np
 
-from sc2jax.environment.engine.rules.production import trained_type
+from sc2jax.environment.engine.rules.production import trains
 from sc2jax.environment.engine.rules.state import EnvState, Owner, Units
 from sc2jax.environment.engine.rules.units import UNIT_DATA, Attribute
 from sc2jax.environment.engine.xla.fusion import set_static
@@ -65,7 +65,7 @@ def after_loop(state: EnvState, old_units: Units, died, minerals, vespene, spent
       old_units: the units before the loop (to value the enemies that died).
       died: bool[N] units that died in the loop.
       minerals, vespene: float32 resources deposited in the loop.
-      spent: int32 minerals spent in the loop.
+      spent: int32[2] minerals and vespene spent in the loop.
 
     Returns:
       The state with `score_cumulative` and `collection_rate` updated.
@@ -75,13 +75,13 @@ def after_loop(state: EnvState, old_units: Units, died, minerals, vespene, spent
     killed = jnp.sum(jnp.where(enemy_died, jnp.asarray(_VALUE)[old_units.type], 0))
     own = units.alive & (units.owner == Owner.SELF)
     idle_workers = jnp.sum(units.idle_workers)
-    idle_producers = jnp.sum(units.complete & own & (trained_type(units) != 0)
-                             & (units.queue[:, 0] == 0))
+    idle_producers = jnp.sum(units.complete & own & trains(units) & (units.queue[:, 0] == 0))
     income = jnp.stack([minerals, vespene]) * LOOPS_PER_RATE_MINUTE
     rate = state.collection_rate + (income - state.collection_rate) * RATE_SMOOTHING
     old = state.score_cumulative
     added = {C.killed_value_units: killed, C.collected_minerals: minerals.astype(jnp.int32),
-             C.collected_vespene: vespene.astype(jnp.int32), C.spent_minerals: spent,
+             C.collected_vespene: vespene.astype(jnp.int32), C.spent_minerals: spent[0],
+             C.spent_vespene: spent[1],
              C.idle_worker_time: idle_workers, C.idle_production_time: idle_producers}
     cumulative = set_static(old, {
         **{int(i): old[i] + v for i, v in added.items()},

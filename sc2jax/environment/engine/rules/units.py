@@ -109,6 +109,7 @@ class UnitData(NamedTuple):
       acquire: auto-acquisition range for idle and attack-moving units.
       attributes: `Attribute` flags.
       flying: the unit is in the air.
+      town_hall: a landed Command Center or Orbital Command, where workers return cargo.
       is_army: counts for `select_army` and `army_count`.
       food: supply used.
       mineral_cost, vespene_cost: cost.
@@ -140,6 +141,7 @@ class UnitData(NamedTuple):
     acquire: np.ndarray
     attributes: np.ndarray
     flying: np.ndarray
+    town_hall: np.ndarray
     is_army: np.ndarray
     food: np.ndarray
     mineral_cost: np.ndarray
@@ -198,7 +200,8 @@ def _other_row(t: UnitType) -> dict:
                 bonus_attribute=_L if bonus else 0, attacks=1 if damage else 0,
                 targets=Targets.GROUND if damage else 0, cooldown=cooldown, range=rng,
                 sight=sight, acquire=acquire, attributes=attributes, flying=False,
-                is_army=is_army, food=food, mineral_cost=minerals, vespene_cost=vespene,
+                town_hall=False, is_army=is_army, food=food, mineral_cost=minerals,
+                vespene_cost=vespene,
                 burst=_BURST.get(t, 0.0), contents=_CONTENTS.get(t, 0), build_time=0,
                 supply=0, footprint=_FOOTPRINT.get(t, (0, 0)))
 
@@ -225,6 +228,7 @@ def _terran_row(t: UnitType, name: str) -> dict:
         range=weapon["range"] if weapon else 0.0, sight=row["sight"],
         acquire=max(weapon["range"], ACQUIRE) if armed else 0.0, attributes=attributes,
         flying=row["flying"], is_army=row["food"] > 0 and t not in WORKERS, food=row["food"],
+        town_hall="CommandCenter" in (name, row["tech_alias"]) and not row["flying"],
         mineral_cost=row["minerals"], vespene_cost=row["vespene"], burst=0.0, contents=0,
         build_time=row["build_time"], supply=row["supply"], footprint=tuple(row["footprint"]))
 
@@ -244,7 +248,8 @@ def _build() -> UnitData:
         attacks=i32("attacks"), targets=i32("targets"),
         cooldown=f32("cooldown") * LOOPS_PER_SECOND,
         range=f32("range"), sight=f32("sight"), acquire=f32("acquire"),
-        attributes=i32("attributes"), flying=col("flying", bool), is_army=col("is_army", bool),
+        attributes=i32("attributes"), flying=col("flying", bool),
+        town_hall=col("town_hall", bool), is_army=col("is_army", bool),
         food=f32("food"), mineral_cost=i32("mineral_cost"), vespene_cost=i32("vespene_cost"),
         burst=f32("burst"), contents=f32("contents"), build_time=f32("build_time"),
         supply=f32("supply"), footprint=i32("footprint"))
