@@ -54,10 +54,13 @@ def pytest_unconfigure(config):
         shutil.rmtree(os.environ.pop(_ENV), ignore_errors=True)
 
 
-# Files that each take a worker about a minute or more, longest first (measured on 2
-# cores, 2026-11-27: about 210, 175, 155, 140 and 55 s).
-_LONGEST_FIRST = ("test_training.py", "test_actor_learner.py", "test_contract_vmap.py",
-                  "test_contract.py", "test_learning.py")
+# Files that each take a worker a minute or more, longest first (measured on 2 cores,
+# 2026-11-30, summed over their tests: about 175, 115, 115, 100, 100, 100, 95, 95, 80,
+# 75 and 60 s).
+_LONGEST_FIRST = ("test_data_parallel.py", "test_cloning.py", "test_evaluation.py",
+                  "test_doc_examples.py", "test_actor_learner.py", "test_training.py",
+                  "test_contract.py", "test_loopback.py", "test_mechanics.py",
+                  "test_learning.py", "test_contract_vmap.py")
 
 
 def pytest_collection_modifyitems(config, items):
