@@ -203,9 +203,9 @@ def unit_row(name: str, api: dict, names: dict[int, str]) -> dict:
     return row
 
 
-def check_requirements(dasc2: dict[str, dict]) -> None:
-    """Raises unless every tech requirement the 4.1.1 dump gives is `TECH`'s."""
-    names = {unit["unit_id"]: name for name, unit in dasc2.items()}
+def check_requirements(dasc2: dict[str, dict], names: dict[int, str]) -> None:
+    """Raises unless every tech requirement the 4.1.1 dump gives is `TECH`'s; `names`
+    maps the dump's unit ids to names."""
     for name, (_, requires, addon, _) in TECH.items():
         needed = dasc2[name].get("tech_requirement")
         if needed is None:
@@ -220,8 +220,8 @@ def table(dasc2: dict[str, dict]) -> dict:
     missing = sorted(set(TECH) - set(dasc2))
     if missing:
         raise SystemExit(f"error: not in the daSC2 units.json: {missing}")
-    check_requirements(dasc2)
     names = {unit["unit_id"]: name for name, unit in dasc2.items()}
+    check_requirements(dasc2, names)
     units = {name: unit_row(name, dasc2[name], names) for name in TECH}
     upgrades = {
         name: {"upgrade_id": uid, "minerals": minerals, "vespene": vespene,

@@ -23,7 +23,7 @@ from sc2jax.environment.engine.minigames.economy import COMMAND_CENTER, GEYSERS,
 from sc2jax.environment.engine.rules import production, score
 from sc2jax.environment.engine.rules.dynamics import game_loop
 from sc2jax.environment.engine.rules.state import Order, Owner, first_slots, place
-from sc2jax.environment.engine.rules.units import UnitType, game_name
+from sc2jax.environment.engine.rules.units import UnitType, game_name, terran_types
 from sc2jax.environment.interface.observation_tables import Player, ScoreCumulative
 from sc2jax.environment.interface.protocol_enums import ActionResult
 from tests.environment.helpers import PARAMS, SMALL, assert_trees_equal, compiled, small_sim
@@ -455,7 +455,7 @@ def test_too_little_vespene_is_not_enough_vespene():
                                        UnitType.ENGINEERING_BAY, UnitType.BUNKER],
                          ids=lambda t: t.name)
 def test_each_structure_needs_its_table_requirement(structure):
-    needed = UnitType[_snake(row(structure)["requires"])]
+    needed = terran_types()[row(structure)["requires"]]
     build = F[f"Build_{game_name(structure)}_screen"]
     state, step = start()
     if needed == UnitType.COMMAND_CENTER:  # The map's Command Center: gone, then back.
@@ -516,7 +516,3 @@ def test_each_structure_costs_and_builds_for_its_table_values(structure):
     builder = slots(state, UnitType.SCV)[0]
     assert int(state.units.orders[builder, 0]) == Order.NONE
 
-
-def _snake(name: str) -> str:
-    """"EngineeringBay" -> "ENGINEERING_BAY"."""
-    return "".join("_" + c if c.isupper() and i else c for i, c in enumerate(name)).upper()

@@ -13,8 +13,7 @@ from sc2jax.environment.engine.rules.units import (
     UNIT_DATA,
     Attribute,
     Targets,
-    UnitType,
-    game_name,
+    terran_types,
 )
 from sc2jax.environment.interface.functions import FUNCTIONS
 from sc2jax.replay_sl.units import stable_unit_ids
@@ -106,7 +105,7 @@ def test_every_value_names_its_source():
 @pytest.mark.parametrize("name", sorted(ISSUE_UNITS + ISSUE_BUILDINGS))
 def test_engine_unit_data_is_the_tables(name):
     row = UNITS[name]
-    t = next(t for t in UnitType if game_name(t) == name)
+    t = terran_types()[name]
     weapon = row["weapons"][0] if row["weapons"] else None
     assert UNIT_DATA.sc2_id[t] == row["sc2_id"]
     assert (UNIT_DATA.mineral_cost[t], UNIT_DATA.vespene_cost[t]) == (

@@ -53,7 +53,7 @@ from sc2jax.environment.engine.rules.state import (
     place_where,
     targeted_by,
 )
-from sc2jax.environment.engine.rules.units import UNIT_DATA, Attribute, UnitType, game_name
+from sc2jax.environment.engine.rules.units import UNIT_DATA, Attribute, UnitType, terran_types
 from sc2jax.environment.engine.xla.lazy import lazy_where
 from sc2jax.environment.interface.protocol_enums import ActionResult
 
@@ -74,7 +74,7 @@ _NOT_YET = (UnitType.MARAUDER, UnitType.SIEGE_TANK, UnitType.MULE, UnitType.BARR
 
 
 def _terran_tables():
-    types = {game_name(t): t for t in UnitType if game_name(t) is not None}
+    types = terran_types()
     makes = np.zeros((len(UnitType), len(UnitType)), bool)
     required = np.zeros(len(UnitType), np.int32)
     counts_as = np.arange(len(UnitType), dtype=np.int32)

@@ -81,11 +81,19 @@ class Targets(enum.IntFlag):
 
 
 @functools.cache
+def terran_types() -> dict[str, UnitType]:
+    """The Terran data table's name -> the type of that name ("SiegeTank" -> SIEGE_TANK),
+    for the types the table holds."""
+    names = {name.lower(): name for name in terran_data.table()["units"]}
+    keys = {t: t.name.replace("_", "").lower() for t in UnitType}
+    return {names[key]: t for t, key in keys.items() if key in names}
+
+
+@functools.cache
 def game_name(unit_type: UnitType) -> str | None:
     """The Terran data table's name of a type ("SIEGE_TANK" -> "SiegeTank"), or None for
     the types the table does not hold."""
-    key = unit_type.name.replace("_", "").lower()
-    return {name.lower(): name for name in terran_data.table()["units"]}.get(key)
+    return {t: name for name, t in terran_types().items()}.get(unit_type)
 
 
 class UnitData(NamedTuple):
