@@ -16,17 +16,17 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from sc2jax.environment.engine import ui
+from sc2jax.environment.engine import terran_data, ui
 from sc2jax.environment.engine.availability import (
     CARD_TABLE,
     MAKE_FUNCTIONS,
     available_actions,
 )
 from sc2jax.environment.engine.render import Renderer, pick_unit
-from sc2jax.environment.engine.rules import commands, production
+from sc2jax.environment.engine.rules import commands, morphs, production
 from sc2jax.environment.engine.rules.geometry import clamp_camera
 from sc2jax.environment.engine.rules.state import NO_TARGET, EnvState, Order, Owner
-from sc2jax.environment.engine.rules.units import UNIT_DATA, UnitType
+from sc2jax.environment.engine.rules.units import UNIT_DATA, UnitType, game_name
 from sc2jax.environment.engine.xla.fusion import set_static
 from sc2jax.environment.interface.dense import DenseAction
 from sc2jax.environment.interface.functions import FUNCTIONS, NUM_FUNCTIONS, FunctionType
@@ -60,6 +60,8 @@ class Kind(enum.IntEnum):
     CANCEL_LAST = 20
     SELECT_IDLE_WORKER = 21
     BUILD_QUEUE = 22
+    BUILD_ADDON = 23
+    MORPH = 24
 
 
 _BY_NAME = {
@@ -76,6 +78,8 @@ _BY_NAME = {
     "Rally_Units_screen": Kind.RALLY, "Rally_Units_minimap": Kind.RALLY,
     "Cancel_quick": Kind.CANCEL, "Cancel_Last_quick": Kind.CANCEL_LAST,
     "select_idle_worker": Kind.SELECT_IDLE_WORKER, "build_queue": Kind.BUILD_QUEUE,
+    "Build_TechLab_quick": Kind.BUILD_ADDON, "Build_Reactor_quick": Kind.BUILD_ADDON,
+    **{name: Kind.MORPH for name in morphs.MODES},
 }
 _BY_NAME.update({name: Kind.BUILD if name.startswith("Build_") else Kind.TRAIN
                  for name in MAKE_FUNCTIONS})
@@ -85,6 +89,13 @@ MAKE_ABILITY = np.zeros(len(UnitType), np.int32)
 for _name, _type in MAKE_FUNCTIONS.items():
     MAKES_TABLE[FUNCTIONS[_name].id] = _type
     MAKE_ABILITY[_type] = FUNCTIONS[_name].ability_id
+for _type in np.flatnonzero(production.ADDON_KIND):  # Each add-on's own (specific) ability.
+    MAKE_ABILITY[_type] = terran_data.unit(game_name(UnitType(_type)))["ability_id"]
+
+ADDON_TABLE = np.zeros(NUM_FUNCTIONS, np.int32)
+"""The `AddOn` each function builds (0 where none)."""
+ADDON_TABLE[FUNCTIONS.Build_TechLab_quick.id] = production.AddOn.TECH_LAB
+ADDON_TABLE[FUNCTIONS.Build_Reactor_quick.id] = production.AddOn.REACTOR
 
 KIND_TABLE = np.zeros(NUM_FUNCTIONS, np.int32)
 for _name, _kind in _BY_NAME.items():
@@ -188,6 +199,11 @@ def apply_action(state: EnvState, action: DenseAction, renderer: Renderer,
         new_units, new_bank, result = production.enqueue(units, bank, makes)
         return paid(new_units, result, new_bank)
 
+    def build_addon():
+        new_units, new_bank, new_tag, result = production.build_addon(
+            units, bank, next_tag, renderer.buildable, jnp.asarray(ADDON_TABLE)[function])
+        return paid(new_units, result, new_bank, new_tag)
+
     def cancel():
         new_units, new_bank, new_tag, result = production.cancel_construction(
             units, bank, next_tag)
@@ -225,6 +241,8 @@ def apply_action(state: EnvState, action: DenseAction, renderer: Renderer,
         lambda: cancel_queued(None),
         lambda: keep_camera(ui.select_idle_worker(units, a.select_worker)),
         lambda: cancel_queued(a.build_queue_id),
+        build_addon,
+        lambda: keep_camera(morphs.switch_mode(units, function)),
     ]
     if not economy:
         branches = branches[:Kind.BUILD]

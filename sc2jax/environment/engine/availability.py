@@ -10,7 +10,7 @@ from __future__ import annotations
 import jax.numpy as jnp
 import numpy as np
 
-from sc2jax.environment.engine.rules import production
+from sc2jax.environment.engine.rules import morphs, production
 from sc2jax.environment.engine.rules.state import Owner, Units
 from sc2jax.environment.engine.rules.units import UNIT_DATA, UnitType, game_name
 from sc2jax.environment.interface.functions import ALWAYS, FUNCTIONS, NUM_FUNCTIONS
@@ -23,9 +23,11 @@ def _make_function(unit_type: UnitType) -> str:
             else f"Train_{name}_quick")
 
 
-MAKE_FUNCTIONS = {_make_function(UnitType(t)): UnitType(t)
-                  for t in np.flatnonzero(production.MAKES.any(axis=0))}
-"""Each Build_* or Train_* function the simulator has -> the unit type it makes."""
+MAKE_FUNCTIONS = {**{_make_function(UnitType(t)): UnitType(t)
+                     for t in np.flatnonzero(production.MAKES.any(axis=0))},
+                  **{name: UnitType(t) for name, (_, t) in morphs.UPGRADES.items()}}
+"""Each Build_* or Train_* function the simulator has, and each upgrade queued as a unit
+(`Morph_OrbitalCommand_quick`) -> the unit type it makes."""
 
 COMBAT_CARD = ("Attack_screen", "Attack_minimap", "HoldPosition_quick", "Move_screen",
                "Move_minimap", "Patrol_screen", "Patrol_minimap", "Smart_screen",
@@ -37,6 +39,11 @@ SCV_CARD = COMBAT_CARD + ("Harvest_Gather_screen", "Harvest_Return_quick",
                           "Build_EngineeringBay_screen", "Build_Bunker_screen",
                           "Build_Factory_screen", "Build_Starport_screen")
 
+TOWN_HALL_CARD = ("Train_SCV_quick", "Rally_Workers_screen", "Rally_Workers_minimap",
+                  "Smart_screen", "Smart_minimap", "Cancel_Last_quick")
+
+ADDON_CARD = ("Build_TechLab_quick", "Build_Reactor_quick")
+
 PRODUCER_CARD = ("Rally_Units_screen", "Rally_Units_minimap", "Smart_screen",
                  "Smart_minimap", "Cancel_Last_quick")
 
@@ -47,21 +54,31 @@ COMMAND_CARDS: dict[UnitType, tuple[str, ...]] = {
     UnitType.BANELING: COMBAT_CARD,
     UnitType.REAPER: COMBAT_CARD,
     UnitType.HELLION: COMBAT_CARD,
-    UnitType.VIKING_FIGHTER: COMBAT_CARD,
+    UnitType.VIKING_FIGHTER: COMBAT_CARD + ("Morph_VikingAssaultMode_quick",),
+    UnitType.VIKING_ASSAULT: COMBAT_CARD + ("Morph_VikingFighterMode_quick",),
+    UnitType.SIEGE_TANK: COMBAT_CARD + ("Morph_SiegeMode_quick",),
+    UnitType.SIEGE_TANK_SIEGED: ("Attack_screen", "Attack_minimap", "Stop_quick",
+                                 "Morph_Unsiege_quick"),
     UnitType.MEDIVAC: ("HoldPosition_quick", "Move_screen", "Move_minimap", "Patrol_screen",
                        "Patrol_minimap", "Smart_screen", "Smart_minimap", "Stop_quick"),
     UnitType.SCV: SCV_CARD,
-    UnitType.COMMAND_CENTER: ("Train_SCV_quick", "Rally_Workers_screen", "Rally_Workers_minimap",
-                              "Smart_screen", "Smart_minimap", "Cancel_Last_quick"),
-    UnitType.BARRACKS: ("Train_Marine_quick", "Train_Reaper_quick") + PRODUCER_CARD,
-    UnitType.FACTORY: ("Train_Hellion_quick",) + PRODUCER_CARD,
-    UnitType.STARPORT: ("Train_Medivac_quick", "Train_VikingFighter_quick") + PRODUCER_CARD,
+    UnitType.COMMAND_CENTER: TOWN_HALL_CARD + ("Morph_OrbitalCommand_quick",),
+    UnitType.ORBITAL_COMMAND: TOWN_HALL_CARD,
+    UnitType.SUPPLY_DEPOT: ("Morph_SupplyDepot_Lower_quick",),
+    UnitType.SUPPLY_DEPOT_LOWERED: ("Morph_SupplyDepot_Raise_quick",),
+    UnitType.BARRACKS: ("Train_Marine_quick", "Train_Reaper_quick", "Train_Marauder_quick")
+    + ADDON_CARD + PRODUCER_CARD,
+    UnitType.FACTORY: ("Train_Hellion_quick", "Train_SiegeTank_quick") + ADDON_CARD
+    + PRODUCER_CARD,
+    UnitType.STARPORT: ("Train_Medivac_quick", "Train_VikingFighter_quick") + ADDON_CARD
+    + PRODUCER_CARD,
 }
 """Each unit type's command card, as general function names, with the buttons the
 simulator has (docs/fidelity.md). Some buttons show only when they apply
-(`available_actions`): Return Cargo while carrying, Cancel Last while training, and a
-unit or structure once its requirement is met (Build Barracks with a complete Supply
-Depot)."""
+(`available_actions`): Return Cargo while carrying, Cancel Last while training, the
+add-ons at a producer without one, and a unit or structure once its requirement is met
+(Build Barracks with a complete Supply Depot, Train Marauder at a Barracks with a
+complete Tech Lab)."""
 
 CONSTRUCTION_CARD = ("Cancel_quick",)
 """The card of an unfinished structure."""
@@ -80,6 +97,7 @@ CARD_TABLE = card_table(COMMAND_CARDS)
 """bool[num_unit_types, num_functions]."""
 
 _REQUIRING = {name: t for name, t in MAKE_FUNCTIONS.items() if production.REQUIRED[t]}
+_NEEDING_ADDON = {name: t for name, t in MAKE_FUNCTIONS.items() if production.NEEDS_ADDON[t]}
 _CONSTRUCTION_MASK = card_table({UnitType.NONE: CONSTRUCTION_CARD})[UnitType.NONE]
 _ALWAYS_MASK = np.zeros(NUM_FUNCTIONS, bool)
 _ALWAYS_MASK[[FUNCTIONS[name].id for name in ALWAYS]] = True
@@ -139,13 +157,21 @@ def available_actions(units: Units, card_table=CARD_TABLE):
         mask = jnp.where(only(name), value, mask)
     # Buttons that show only when they apply; a type's button once its requirement is
     # met.
-    conditions = {"Harvest_Return_quick": carrying.any(), "Cancel_Last_quick": training.any()}
+    bare = (own_selected & units.complete & jnp.asarray(production.ADDON_OF[:, 1] > 0)[units.type]
+            & (production.addon_kinds(units)[0] == 0))
+    conditions = {"Harvest_Return_quick": carrying.any(), "Cancel_Last_quick": training.any(),
+                  "Build_TechLab_quick": bare.any(), "Build_Reactor_quick": bare.any()}
     met = {}
     for name, unit_type in _REQUIRING.items():
         needed = int(production.REQUIRED[unit_type])
         if needed not in met:
             met[needed] = production.has_structure(units, needed)
         conditions[name] = met[needed]
+    for name, unit_type in _NEEDING_ADDON.items():
+        makers = own_selected & units.complete & jnp.asarray(production.MAKES[:, unit_type])[
+            units.type]
+        conditions[name] = conditions.get(name, True) & jnp.any(
+            makers & production.equipped(units, unit_type))
     for name, condition in conditions.items():
         mask = mask & (~only(name) | condition)
     return mask

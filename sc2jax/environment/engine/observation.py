@@ -69,8 +69,9 @@ def production_panel(units: Units, length: int):
     """(build_queue int32[length, 7], production_queue int32[length, 2]): the queue of
     the single selected unit, if it is training (the game's production panel).
 
-    A queued unit's vector is its type at full health, with the build progress of the
-    one in training; `production_queue` rows are [Train ability id, progress %].
+    A queued unit's vector is its type at full health, with its build progress (of the
+    one in training, or the two with a Reactor); `production_queue` rows are [Train
+    ability id, progress %]. A Reactor's queue holds 8, others 5.
     """
     selected = units.selected & units.alive
     slot = jnp.argmax(selected)
@@ -78,9 +79,7 @@ def production_panel(units: Units, length: int):
     queue = units.queue[slot]
     in_queue = shown & (queue != 0)
     time = jnp.asarray(UNIT_DATA.build_time)[queue]
-    first = jnp.arange(queue.shape[0]) == 0
-    percent = jnp.where(first, jnp.floor(units.queue_work[slot] / jnp.maximum(time, 1.0) * 100),
-                        0).astype(jnp.int32)
+    percent = jnp.floor(units.queue_work[slot] / jnp.maximum(time, 1.0) * 100).astype(jnp.int32)
     vectors = jnp.stack([
         jnp.asarray(UNIT_DATA.sc2_id)[queue], jnp.full_like(queue, 1),
         jnp.asarray(UNIT_DATA.max_health)[queue].astype(jnp.int32),
@@ -162,7 +161,8 @@ def api_units(state: EnvState, renderer: Renderer) -> dict:
     plus the API values the other columns are computed from: `x`, `y` (world),
     `radius` (world units), `build_progress` and `order_progress_0` (fractions),
     `health_max`, `shield_max`, `energy_max`, and `order_abilities` int32[N, Q + B] (the
-    ability id of each order, then of each queued unit in training; 0 for none). `shown`
+    ability id of each order, or of the add-on a producer builds, then of each queued
+    unit; 0 for none). `shown`
     marks the units the player sees (those the API reports).
     """
     d = UNIT_DATA
@@ -175,13 +175,19 @@ def api_units(state: EnvState, renderer: Renderer) -> dict:
     build_or_construct = (units.orders == Order.BUILD) | (units.orders == Order.CONSTRUCT)
     built = jnp.where(units.orders == Order.CONSTRUCT,
                       t[jnp.clip(units.order_unit, 0, n - 1)], units.order_type)
-    order_abilities = jnp.concatenate([
-        jnp.where(build_or_construct, jnp.asarray(MAKE_ABILITY)[built],
-                  jnp.asarray(ORDER_ABILITY)[units.orders]),
-        jnp.asarray(MAKE_ABILITY)[units.queue]], axis=1)
-    # A producer's first order is the unit in training.
+    # A producer's first order is the add-on it builds, else the unit in training.
+    kind, addon_done = production.addon_kinds(units)
+    addon = jnp.clip(units.addon, 0, n - 1)
+    building_addon = (kind > 0) & ~addon_done
+    orders = jnp.where(build_or_construct, jnp.asarray(MAKE_ABILITY)[built],
+                       jnp.asarray(ORDER_ABILITY)[units.orders])
+    orders = orders.at[:, 0].set(jnp.where(building_addon, jnp.asarray(MAKE_ABILITY)[t[addon]],
+                                           orders[:, 0]))
+    order_abilities = jnp.concatenate([orders, jnp.asarray(MAKE_ABILITY)[units.queue]], axis=1)
     training = (units.orders[:, 0] == Order.NONE) & (units.queue[:, 0] != 0)
     train_time = jnp.asarray(d.build_time)[units.queue[:, 0]]
+    progress_0 = jnp.where(building_addon, build_fraction(units)[addon], jnp.where(
+        training, units.queue_work[:, 0] / jnp.maximum(train_time, 1.0), 0.0))
     assigned, ideal = harvesters(units)
     return {
         "shown": renderer.units_shown(state),
@@ -210,8 +216,7 @@ def api_units(state: EnvState, renderer: Renderer) -> dict:
         "weapon_cooldown": units.cooldown,
         "order_abilities": order_abilities,
         "order_length": jnp.sum(order_abilities != 0, axis=1).astype(jnp.int32),
-        "order_progress_0": jnp.where(training, units.queue_work / jnp.maximum(train_time, 1.0),
-                                      0.0),
+        "order_progress_0": progress_0,
     }
 
 

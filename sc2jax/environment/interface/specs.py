@@ -135,7 +135,7 @@ def _layer_index(layers, name: str, layer_set: str) -> int:
 
 
 # Maximum lengths of PySC2's variable-length fields, and their padded lengths.
-MAX_BUILD_QUEUE = 5
+MAX_BUILD_QUEUE = 8
 MAX_CARGO = 8
 MAX_ALERTS = 4
 MAX_LAST_ACTIONS = 4

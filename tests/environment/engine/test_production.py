@@ -20,6 +20,7 @@ import pytest
 from sc2jax.environment import FUNCTIONS, Simulator, to_dense
 from sc2jax.environment.engine import terran_data
 from sc2jax.environment.engine.minigames.economy import COMMAND_CENTER, GEYSERS, LEFT_FIELDS
+from sc2jax.environment.engine.observation import api_units
 from sc2jax.environment.engine.rules import production, score
 from sc2jax.environment.engine.rules.dynamics import game_loop
 from sc2jax.environment.engine.rules.state import Order, Owner, first_slots, place
@@ -394,8 +395,13 @@ def test_first_slots_is_nonzero_and_the_economy_loop_has_no_scatter():
 PRODUCER_SITE = (37.5, 25.5)  # Clear of the SCVs, the Command Center and the fields.
 DEPOTS = [(UnitType.SUPPLY_DEPOT, (36.0, 34.0)), (UnitType.SUPPLY_DEPOT, (38.0, 34.0))]
 TRAINED = {UnitType.MARINE: UnitType.BARRACKS, UnitType.REAPER: UnitType.BARRACKS,
-           UnitType.HELLION: UnitType.FACTORY, UnitType.MEDIVAC: UnitType.STARPORT,
+           UnitType.MARAUDER: UnitType.BARRACKS, UnitType.HELLION: UnitType.FACTORY,
+           UnitType.SIEGE_TANK: UnitType.FACTORY, UnitType.MEDIVAC: UnitType.STARPORT,
            UnitType.VIKING_FIGHTER: UnitType.STARPORT}
+ADDONS = {UnitType.BARRACKS: (UnitType.BARRACKS_TECH_LAB, UnitType.BARRACKS_REACTOR),
+          UnitType.FACTORY: (UnitType.FACTORY_TECH_LAB, UnitType.FACTORY_REACTOR),
+          UnitType.STARPORT: (UnitType.STARPORT_TECH_LAB, UnitType.STARPORT_REACTOR)}
+ADDON_SITE = (PRODUCER_SITE[0] + 2.5, PRODUCER_SITE[1] - 0.5)
 BUILT = (UnitType.SUPPLY_DEPOT, UnitType.BARRACKS, UnitType.FACTORY, UnitType.STARPORT,
          UnitType.ENGINEERING_BAY, UnitType.BUNKER, UnitType.COMMAND_CENTER)
 
@@ -419,6 +425,9 @@ def test_each_unit_costs_and_trains_for_its_table_values(unit):
     data = row(unit)
     state, step = start()
     state = _with_units(state, [(TRAINED[unit], PRODUCER_SITE)] + DEPOTS)
+    if data["requires_addon"]:  # The Marauder and the Siege Tank: a Tech Lab.
+        assert data["requires_addon"] == "TechLab"
+        state = _with_addon(state, ADDONS[TRAINED[unit]][0])
     state = state.replace(minerals=jnp.int32(1000), vespene=jnp.int32(500))
     state, ts = act(step, state, F.select_point("select", pixel(state, PRODUCER_SITE)))
     train = F[f"Train_{game_name(unit)}_quick"]
@@ -439,6 +448,140 @@ def test_each_unit_costs_and_trains_for_its_table_values(unit):
     assert len(slots(state, unit)) == before
     state, _ = wait(step, state, 1)
     assert len(slots(state, unit)) == before + 1
+
+
+def _with_addon(state, addon, complete=True):
+    """The state with `addon` attached, complete or just started, to the producer at
+    PRODUCER_SITE."""
+    units = jax.device_get(state.units)
+    (producer,) = np.flatnonzero(units.alive & np.isclose(units.pos, PRODUCER_SITE).all(1))
+    (slot,) = np.flatnonzero(~units.alive)[:1]  # Where `_with_units` puts it.
+    state = _with_units(state, [(addon, ADDON_SITE)], complete)
+    units = state.units
+    return state.replace(units=units.replace(addon=units.addon.at[producer].set(int(slot))))
+
+
+def _select_producer(step, state):
+    return act(step, state, F.select_point("select", pixel(state, PRODUCER_SITE)))
+
+
+@pytest.mark.parametrize("addon", [a for pair in ADDONS.values() for a in pair],
+                         ids=lambda t: t.name)
+def test_each_addon_is_built_beside_its_producer_for_its_table_values(addon):
+    data = row(addon)
+    (producer,) = [p for p, pair in ADDONS.items() if addon in pair]
+    assert data["producers"] == [game_name(producer)] and data["footprint"] == [2, 2]
+    state, step = start()
+    state = _with_units(state, [(producer, PRODUCER_SITE)] + DEPOTS)
+    state = state.replace(minerals=jnp.int32(1000), vespene=jnp.int32(500))
+    state, ts = _select_producer(step, state)
+    build = F.Build_TechLab_quick if addon == ADDONS[producer][0] else F.Build_Reactor_quick
+    assert {F.Build_TechLab_quick.id, F.Build_Reactor_quick.id} <= available(ts)
+    state, ts = act(step, state, build("now"))
+    assert result(ts) == 0
+    assert (int(state.minerals), int(state.vespene)) == (1000 - data["minerals"],
+                                                         500 - data["vespene"])
+    (placed,) = slots(state, addon)
+    np.testing.assert_allclose(np.asarray(state.units.pos[placed]), ADDON_SITE)
+    assert int(state.units.addon[slots(state, producer)[0]]) == placed
+    # Built from the action's game loop on, one loop per loop, from a tenth of its
+    # health to full; the producer offers no other add-on meanwhile.
+    assert float(state.units.progress[placed]) == 8.0
+    np.testing.assert_allclose(float(state.units.health[placed]),
+                               data["health"] * (0.1 + 0.9 * 8 / data["build_time"]), rtol=1e-5)
+    assert not {F.Build_TechLab_quick.id, F.Build_Reactor_quick.id} & available(ts)
+    # The API shows the add-on's ability as the producer's order, with its progress.
+    api = jax.device_get(api_units(state, small_sim(CMAG).renderer))
+    builder = slots(state, producer)[0]
+    assert api["order_abilities"][builder, 0] == data["ability_id"]
+    np.testing.assert_allclose(api["order_progress_0"][builder], 8 / data["build_time"])
+    state, _ = wait(step, state, int(data["build_time"]) // 8 - 2)
+    assert not bool(state.units.complete[placed])
+    state, _ = wait(step, state, 1)
+    assert bool(state.units.complete[placed])
+    np.testing.assert_allclose(float(state.units.health[placed]), data["health"], rtol=1e-5)
+
+
+def test_a_producer_trains_nothing_while_its_addon_is_built():
+    state, step = start()
+    state = _with_units(state, [(UnitType.BARRACKS, PRODUCER_SITE)] + DEPOTS)
+    state = _with_addon(state, UnitType.BARRACKS_TECH_LAB, complete=False)
+    state, ts = _select_producer(step, state)
+    assert F.Train_Marauder_quick.id not in available(ts)  # Its Tech Lab is unfinished.
+    state, ts = act(step, state, F.Train_Marine_quick("now"))
+    assert result(ts) == 0
+    barracks = slots(state, UnitType.BARRACKS)[0]
+    state, _ = wait(step, state, 400 // 8 - 3)
+    assert float(state.units.queue_work[barracks, 0]) == 0.0
+    # The Tech Lab (placed unfinished before the 2 steps above) completes in the last
+    # loop of the next step, in which the Marine starts training.
+    state, ts = wait(step, state, 2)
+    assert float(state.units.queue_work[barracks, 0]) == 9.0
+    assert F.Train_Marauder_quick.id in available(ts)
+
+
+def test_addon_errors_busy_blocked_poor_and_none_to_build():
+    state, step = start()
+    base = _with_units(state, [(UnitType.BARRACKS, PRODUCER_SITE)] + DEPOTS)
+    base = base.replace(minerals=jnp.int32(1000), vespene=jnp.int32(500))
+    busy, _ = _select_producer(step, base)
+    busy, _ = act(step, busy, F.Train_Marine_quick("now"))
+    _, ts = act(step, busy, F.Build_TechLab_quick("now"))
+    assert result(ts) == ActionResult.CantQueueThatOrder
+    blocked, _ = _select_producer(step, _with_units(base, [(UnitType.SUPPLY_DEPOT,
+                                                           (ADDON_SITE[0] + 1, ADDON_SITE[1]))]))
+    _, ts = act(step, blocked, F.Build_Reactor_quick("now"))
+    assert result(ts) == ActionResult.CantFindPlacementLocation
+    poor, _ = _select_producer(step, base.replace(vespene=jnp.int32(49)))
+    poor, ts = act(step, poor, F.Build_Reactor_quick("now"))
+    assert result(ts) == ActionResult.NotEnoughVespene
+    assert (int(poor.minerals), int(poor.vespene)) == (1000, 49)
+    assert not len(slots(poor, UnitType.BARRACKS_REACTOR))
+    _, ts = select_cc(step, base)  # A Command Center builds no add-on.
+    assert F.Build_TechLab_quick.id not in available(ts)
+
+
+def test_every_selected_producer_builds_an_addon_while_the_bank_lasts():
+    second = (PRODUCER_SITE[0], PRODUCER_SITE[1] + 4)
+    state, step = start()
+    state = _with_units(state, [(UnitType.BARRACKS, PRODUCER_SITE), (UnitType.BARRACKS, second)]
+                        + DEPOTS)
+    rect = F.select_rect("select", pixel(state, (second[0] - 2, second[1] + 2)),
+                         pixel(state, (PRODUCER_SITE[0] + 2, PRODUCER_SITE[1] - 2)))
+    for vespene, built in ((100, 2), (99, 1)):
+        selected, _ = act(step, state.replace(vespene=jnp.int32(vespene)), rect)
+        selected, ts = act(step, selected, F.Build_Reactor_quick("now"))
+        assert result(ts) == 0 and len(slots(selected, UnitType.BARRACKS_REACTOR)) == built
+        assert int(selected.vespene) == vespene - 50 * built
+
+
+def test_a_reactor_trains_two_at_once_from_a_queue_of_8():
+    state, step = start()
+    state = _with_units(state, [(UnitType.BARRACKS, PRODUCER_SITE)] + DEPOTS)
+    state = _with_addon(state, UnitType.BARRACKS_REACTOR)
+    state = state.replace(minerals=jnp.int32(1000))
+    state, ts = _select_producer(step, state)
+    assert F.Train_Marauder_quick.id not in available(ts)  # A Reactor is no Tech Lab.
+    for _ in range(8):
+        state, ts = act(step, state, F.Train_Marine_quick("now"))
+        assert result(ts) == 0
+    state, ts = act(step, state, F.Train_Marine_quick("now"))
+    assert result(ts) == ActionResult.QueueIsFull
+    # Two in training since their steps: 9 steps (72 loops) and 8 (64 loops) of 400.
+    shown = ts.observation["production_queue"]
+    assert len(shown) == 8 and (shown[:, 0] == F.Train_Marine_quick.ability_id).all()
+    assert shown[:, 1].tolist() == [18, 16, 0, 0, 0, 0, 0, 0]
+    # The first appears in the step that reaches its 400 loops, the second a step later;
+    # the third starts as the first leaves.
+    state, _ = wait(step, state, 400 // 8 - 10)
+    assert len(slots(state, UnitType.MARINE)) == 0
+    state, _ = wait(step, state, 1)
+    assert len(slots(state, UnitType.MARINE)) == 1
+    state, _ = wait(step, state, 1)
+    assert len(slots(state, UnitType.MARINE)) == 2
+    barracks = slots(state, UnitType.BARRACKS)[0]
+    assert int(np.sum(np.asarray(state.units.queue[barracks]) != 0)) == 6
+    assert np.asarray(state.units.queue_work[barracks]).tolist() == [8.0] + [0.0] * 7
 
 
 def test_too_little_vespene_is_not_enough_vespene():
@@ -516,3 +659,64 @@ def test_each_structure_costs_and_builds_for_its_table_values(structure):
     builder = slots(state, UnitType.SCV)[0]
     assert int(state.units.orders[builder, 0]) == Order.NONE
 
+
+
+def test_a_command_center_upgrades_to_an_orbital_command_alone_in_its_queue():
+    data = row(UnitType.ORBITAL_COMMAND)
+    assert data["morphs_from"] == "CommandCenter" and data["requires"] == "Barracks"
+    state, step = start()
+    _, ts = select_cc(step, state)
+    assert F.Morph_OrbitalCommand_quick.id not in available(ts)  # No Barracks yet.
+    state = _with_units(state, [(UnitType.BARRACKS, PRODUCER_SITE)])
+    state, ts = select_cc(step, state)
+    assert F.Morph_OrbitalCommand_quick.id in available(ts)
+    state, ts = act(step, state, F.Morph_OrbitalCommand_quick("now"))
+    price = data["minerals"] - row(UnitType.COMMAND_CENTER)["minerals"]
+    assert result(ts) == 0 and price == 150 and int(state.minerals) == 1000 - price
+    assert ts.observation["production_queue"][0, 0] == F.Morph_OrbitalCommand_quick.ability_id
+    _, ts = act(step, state, F.Train_SCV_quick("now"))
+    assert result(ts) == ActionResult.CantQueueThatOrder  # Busy upgrading.
+    cancelled, _ = act(step, state, F.Cancel_Last_quick("now"))
+    assert int(cancelled.minerals) == 1000
+    cc = slots(state, UnitType.COMMAND_CENTER)[0]
+    state, _ = wait(step, state, int(data["build_time"]) // 8 - 2)
+    assert int(state.units.type[cc]) == UnitType.COMMAND_CENTER
+    state, ts = wait(step, state, 1)
+    assert int(state.units.type[cc]) == UnitType.ORBITAL_COMMAND
+    assert not state.units.queue[cc].any()
+    # Its starting 50 energy, then 0.5625 per game second (here the rest of the step).
+    assert data["start_energy"] == 50
+    assert float(state.units.energy[cc]) == pytest.approx(50 + 0.5625 / 16 * 1, abs=1e-4)
+    state, _ = wait(step, state, 2)
+    assert float(state.units.energy[cc]) == pytest.approx(50 + 0.5625 / 16 * 17, abs=1e-4)
+    state, ts = act(step, state, F.Train_SCV_quick("now"))
+    assert result(ts) == 0
+
+
+@pytest.mark.parametrize("first, second, morph, back", [
+    (UnitType.SUPPLY_DEPOT, UnitType.SUPPLY_DEPOT_LOWERED, "Morph_SupplyDepot_Lower_quick",
+     "Morph_SupplyDepot_Raise_quick"),
+    (UnitType.SIEGE_TANK, UnitType.SIEGE_TANK_SIEGED, "Morph_SiegeMode_quick",
+     "Morph_Unsiege_quick"),
+    (UnitType.VIKING_FIGHTER, UnitType.VIKING_ASSAULT, "Morph_VikingAssaultMode_quick",
+     "Morph_VikingFighterMode_quick")], ids=lambda v: getattr(v, "name", None))
+def test_a_mode_switches_at_once_and_holds_fire_for_its_morph_time(first, second, morph, back):
+    loops = row(second)["build_time"]
+    assert row(second)["morphs_from"] == game_name(first)
+    state, step = start()
+    state = _with_units(state, [(first, PRODUCER_SITE)] + DEPOTS[1:])
+    cap = int(production.food_cap(state.units))
+    (slot,) = [s for s in slots(state, first) if np.allclose(state.units.pos[s], PRODUCER_SITE)]
+    state, ts = _select_producer(step, state)
+    assert F[morph].id in available(ts) and F[back].id not in available(ts)
+    state, ts = act(step, state, F[morph]("now"))
+    assert result(ts) == 0 and int(state.units.type[slot]) == second
+    assert bool(state.units.complete[slot])
+    # The morph time less the step's 8 loops (the weapon's own cooldown where longer).
+    assert float(state.units.cooldown[slot]) == pytest.approx(max(loops - 8, 0), abs=1e-3)
+    assert int(production.food_cap(state.units)) == cap  # A lowered depot still supplies.
+    state, ts = act(step, state, F.no_op())
+    assert F[back].id in available(ts) and F[morph].id not in available(ts)
+    state, ts = act(step, state, F[back]("now"))
+    assert result(ts) == 0 and int(state.units.type[slot]) == first
+    assert bool(state.units.complete[slot])

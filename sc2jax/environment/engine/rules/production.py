@@ -13,6 +13,13 @@ game, with the costs, times, producers and requirements of the Terran data table
   supply allows it (else it waits), for its build time, and appears beside the producer,
   on the side of the rally point; it walks to the rally, and a new SCV rallied to a
   resource gathers from it. Cancelling a queued unit refunds its cost.
+- **Upgrades** (`morphs`): a Command Center trains its Orbital Command as a unit, alone
+  in its queue, and becomes it when done.
+- **Add-ons.** `Build_TechLab` and `Build_Reactor` at an idle Barracks, Factory or
+  Starport without one place its add-on (2 x 2) unfinished at `ADDON_OFFSET` from it,
+  paid for then; it is built in its build time while the producer, busy, trains
+  nothing. A Tech Lab lets its producer train the Marauder and the Siege Tank
+  (`NEEDS_ADDON`); with a Reactor it trains two units at once from a queue of 8.
 - **Construction.** An SCV told to build walks to the site; on arrival the site is checked
   again (placement, cost, tech), the structure appears with 10% of its health and the
   cost is paid, and the SCV constructs it, standing at its edge, for the build time
@@ -33,6 +40,7 @@ unit waits in the queue and a structure is not placed (docs/fidelity.md).
 
 from __future__ import annotations
 
+import enum
 from typing import NamedTuple
 
 import jax
@@ -40,7 +48,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from sc2jax.environment.engine import terran_data
-from sc2jax.environment.engine.rules import commands
+from sc2jax.environment.engine.rules import commands, morphs
 from sc2jax.environment.engine.rules.dynamics import pop_order
 from sc2jax.environment.engine.rules.geometry import squared_length
 from sc2jax.environment.engine.rules.state import (
@@ -62,39 +70,68 @@ START_HEALTH = 0.1
 """The share of its health a structure starts construction with."""
 CANCEL_REFUND = 0.75
 """The share of its cost an unfinished structure refunds when cancelled."""
+ENERGY_PER_LOOP = 0.5625 / 16
+"""Energy regeneration: 0.5625 per game second (0.7875 per second at Faster speed)."""
 RESOURCE_CLEARANCE = 3
 """Cells a Command Center's footprint keeps from mineral fields and geysers."""
 
+QUEUE = 5
+"""A producer's training queue; `BUILD_QUEUE` (8) with a complete Reactor."""
+ADDON_OFFSET = (2.5, -0.5)
+"""An add-on's centre from its producer's: a 2 x 2 footprint flush with the 3 x 3
+producer's right side, its lower edges level."""
+
+
+class AddOn(enum.IntEnum):
+    """The kinds of add-on; each producer's own type of each (`ADDON_OF`)."""
+
+    NONE = 0
+    TECH_LAB = 1
+    REACTOR = 2
+
+
 # What the Terran data table says each type makes, needs and counts as; types the table
-# does not hold make nothing. Add-ons are not built yet, nor the Marauder and the Siege
-# Tank that need one, nor the MULE (called down for energy).
-_NOT_YET = (UnitType.MARAUDER, UnitType.SIEGE_TANK, UnitType.MULE, UnitType.BARRACKS_TECH_LAB,
-            UnitType.BARRACKS_REACTOR, UnitType.FACTORY_TECH_LAB, UnitType.FACTORY_REACTOR,
-            UnitType.STARPORT_TECH_LAB, UnitType.STARPORT_REACTOR)
+# does not hold make nothing. The MULE (called down for energy) is not made yet.
+_NOT_YET = (UnitType.MULE,)
 
 
 def _terran_tables():
     types = terran_types()
-    makes = np.zeros((len(UnitType), len(UnitType)), bool)
-    required = np.zeros(len(UnitType), np.int32)
-    counts_as = np.arange(len(UnitType), dtype=np.int32)
+    t_count = len(UnitType)
+    makes = np.zeros((t_count, t_count), bool)
+    required = np.zeros(t_count, np.int32)
+    counts_as = np.arange(t_count, dtype=np.int32)
+    addon_kind = np.zeros(t_count, np.int32)
+    addon_of = np.zeros((t_count, len(AddOn)), np.int32)
+    needs_addon = np.zeros(t_count, np.int32)
+    kinds = {"TechLab": AddOn.TECH_LAB, "Reactor": AddOn.REACTOR}
     for name, t in types.items():
         row = terran_data.unit(name)
-        if t not in _NOT_YET:
+        kind = next((k for suffix, k in kinds.items() if name.endswith(suffix)), 0)
+        if kind and row["producers"]:
+            addon_kind[t] = kind
+            (producer,) = row["producers"]
+            addon_of[types[producer], kind] = t
+        elif t not in _NOT_YET:
             for producer in row["producers"]:
                 makes[types[producer], t] = True
         if row["requires"]:
             required[t] = types[row["requires"]]
+        if row["requires_addon"]:
+            needs_addon[t] = kinds[row["requires_addon"]]
         if row["tech_alias"] in types:
             counts_as[t] = types[row["tech_alias"]]
-    return makes, required, counts_as
+    return makes, required, counts_as, addon_kind, addon_of, needs_addon
 
 
-MAKES, REQUIRED, COUNTS_AS = _terran_tables()
+MAKES, REQUIRED, COUNTS_AS, ADDON_KIND, ADDON_OF, NEEDS_ADDON = _terran_tables()
 """MAKES: bool[T, T], [producer, made]: a structure trains the unit, or an SCV builds
 the structure. REQUIRED: int32[T] the structure a type needs (0: none). COUNTS_AS:
 int32[T] the type each counts as for requirements (a lowered Supply Depot or a flying
-Barracks as itself landed, an Orbital Command as a Command Center)."""
+Barracks as itself landed, an Orbital Command as a Command Center). ADDON_KIND: int32[T]
+the `AddOn` each add-on type is (0 for the others). ADDON_OF: int32[T, 3], [producer,
+kind]: the add-on type a producer builds (0: none). NEEDS_ADDON: int32[T] the `AddOn`
+the producer of a unit must have (the Marauder's and Siege Tank's Tech Lab)."""
 TRAINERS = MAKES.any(axis=1) & ((UNIT_DATA.attributes & Attribute.STRUCTURE) > 0)
 """bool[T]: the structures that train units (into a queue, with a rally)."""
 BUILDS = tuple(UnitType(t) for t in np.flatnonzero(MAKES[UnitType.SCV]))
@@ -119,8 +156,8 @@ def food_used(units: Units):
     """float32: the food of the player's living units and of the units in training."""
     own = _own(units)
     living = jnp.sum(jnp.where(own, _column("food", units.type), 0.0))
-    training = jnp.sum(jnp.where(own & (units.queue_work > 0),
-                                 _column("food", units.queue[:, 0]), 0.0))
+    training = jnp.sum(jnp.where(own[:, None] & (units.queue_work > 0),
+                                 _column("food", units.queue), 0.0))
     return living + training
 
 
@@ -141,16 +178,64 @@ MIN_BUILD_LOOPS = int(UNIT_DATA.build_time[UNIT_DATA.build_time > 0].min())
 
 
 def creators(units: Units):
-    """bool[N]: the units that can create one, and only one, unit within `MIN_BUILD_LOOPS`
-    game loops with no new action: producers (one unit per build time) and SCVs with a
-    Build order (they place one structure, then construct it for its build time)."""
+    """int32[N]: the most units each slot can create within `MIN_BUILD_LOOPS` game loops
+    with no new action: producers one per build time, two with a Reactor, and SCVs with
+    a Build order one (they place one structure, then construct it for its build
+    time)."""
     builds = jnp.any(units.orders == Order.BUILD, axis=1)
-    return _own(units) & (trains(units) | builds)
+    made = jnp.where(trains(units), _lanes(units), builds.astype(jnp.int32))
+    return jnp.where(_own(units), made, 0)
 
 
 def trains(units: Units):
     """bool[N]: the slots holding structures that train units."""
     return jnp.asarray(TRAINERS)[units.type]
+
+
+def addon_kinds(units: Units):
+    """Each slot's add-on: (int32[N] its `AddOn` kind, 0 for none; bool[N] it is
+    complete). An add-on is a producer's while its slot holds a living add-on at
+    `ADDON_OFFSET` from it (a slot freed and filled again is not)."""
+    n = units.num_slots
+    slot = jnp.clip(units.addon, 0, n - 1)
+    kind = jnp.asarray(ADDON_KIND)[units.type[slot]]
+    beside = jnp.all(jnp.abs(units.pos[slot] - units.pos - jnp.asarray(ADDON_OFFSET)) < 1e-3,
+                     axis=-1)
+    attached = (units.addon >= 0) & units.alive & units.alive[slot] & (kind > 0) & beside
+    return jnp.where(attached, kind, 0), attached & units.complete[slot]
+
+
+def _lanes(units: Units):
+    """int32[N]: the units each producer trains at once: 2 with a complete Reactor."""
+    kind, complete = addon_kinds(units)
+    return jnp.where(complete & (kind == AddOn.REACTOR), 2, 1)
+
+
+def queue_room(units: Units):
+    """int32[N]: each producer's queue length: 5, `BUILD_QUEUE` (8) with a complete
+    Reactor."""
+    return jnp.where(_lanes(units) == 2, BUILD_QUEUE, QUEUE)
+
+
+def upgrading(units: Units):
+    """bool[N]: the structures whose queue holds an upgrade (`morphs.UPGRADE`)."""
+    return jnp.asarray(morphs.UPGRADE)[units.type[:, None], units.queue].any(axis=1)
+
+
+def queue_cost(holder, item):
+    """int32[..., 2]: what queueing `item` (int32[...]) at a `holder` (int32[...]) costs:
+    the unit's cost, or for an upgrade the new form's less the old one's (the table's
+    costs of morphed forms include their first form's)."""
+    upgrade = jnp.asarray(morphs.UPGRADE)[holder, item]
+    return cost(item) - jnp.where(upgrade[..., None], cost(holder), 0)
+
+
+def equipped(units: Units, unit_type):
+    """bool[N]: the slots whose add-on lets them make `unit_type` (int32): a complete one of
+    the kind it `NEEDS_ADDON`, or any slot where it needs none."""
+    needed = jnp.asarray(NEEDS_ADDON)[unit_type]
+    kind, complete = addon_kinds(units)
+    return (needed == 0) | (complete & (kind == needed))
 
 
 def cost(unit_type):
@@ -222,10 +307,9 @@ def placement(units: Units, buildable, unit_type, site, target=NO_TARGET):
                      ground_result).astype(jnp.int32)
 
 
-def affordable(bank, unit_type):
-    """int32 `ActionResult`: 0, NotEnoughMinerals or NotEnoughVespene, for making
-    `unit_type` with `bank` (int32[2] minerals and vespene)."""
-    price = cost(unit_type)
+def affordable(bank, price):
+    """int32 `ActionResult`: 0, NotEnoughMinerals or NotEnoughVespene, for paying
+    `price` (int32[2], as `cost`) from `bank` (int32[2] minerals and vespene)."""
     return jnp.where(bank[0] < price[0], int(ActionResult.NotEnoughMinerals),
                      jnp.where(bank[1] < price[1], int(ActionResult.NotEnoughVespene),
                                0)).astype(jnp.int32)
@@ -255,8 +339,10 @@ class Economy(NamedTuple):
 
 
 def enqueue(units: Units, bank, unit_type):
-    """`Train_*`: queues one unit of `unit_type` at the selected producer of it with the
-    shortest queue, paying its cost.
+    """`Train_*` and upgrades (`morphs.UPGRADES`): queues one unit of `unit_type` at the
+    selected producer of it with the shortest queue, paying its cost. A unit that needs
+    an add-on (`NEEDS_ADDON`) is queued only at a producer with it complete; an upgrade
+    only in an empty queue, and nothing behind it (CantQueueThatOrder).
 
     Args:
       units: the units.
@@ -268,16 +354,23 @@ def enqueue(units: Units, bank, unit_type):
     """
     q = jnp.arange(BUILD_QUEUE)
     length = jnp.sum(units.queue != 0, axis=1)
-    producer = (units.selected & _own(units) & units.complete
-                & jnp.asarray(MAKES)[units.type, unit_type])
-    room = producer & (length < BUILD_QUEUE)
+    upgrade = jnp.asarray(morphs.UPGRADE)[units.type, unit_type]
+    maker = (units.selected & _own(units) & units.complete
+             & (jnp.asarray(MAKES)[units.type, unit_type] | upgrade))
+    producer = maker & equipped(units, unit_type)
+    free = jnp.where(upgrade, length == 0, (length < queue_room(units)) & ~upgrading(units))
+    room = producer & free
     slot = jnp.argmin(jnp.where(room, length, BUILD_QUEUE + 1))
+    price = queue_cost(units.type[slot], unit_type)
     food = _column("food", unit_type)
-    payable = affordable(bank, unit_type)
+    payable = affordable(bank, price)
+    full = jnp.where((producer & (upgrade | upgrading(units))).any(),
+                     int(ActionResult.CantQueueThatOrder), int(ActionResult.QueueIsFull))
     result = jnp.where(
-        ~producer.any(), int(ActionResult.Error),
-        jnp.where(~tech_ok(units, unit_type), int(ActionResult.TechRequirementsNotMet),
-                  jnp.where(~room.any(), int(ActionResult.QueueIsFull),
+        ~maker.any(), int(ActionResult.Error),
+        jnp.where(~producer.any() | ~tech_ok(units, unit_type),
+                  int(ActionResult.TechRequirementsNotMet),
+                  jnp.where(~room.any(), full,
                             jnp.where(payable != 0, payable,
                                       jnp.where(food_used(units) + food > food_cap(units),
                                                 int(ActionResult.NotEnoughFood), 0))))
@@ -285,7 +378,7 @@ def enqueue(units: Units, bank, unit_type):
     ok = result == 0
     at = ok & (jnp.arange(units.num_slots)[:, None] == slot) & (q[None, :] == length[slot])
     units = units.replace(queue=jnp.where(at, unit_type, units.queue))
-    return units, bank - jnp.where(ok, cost(unit_type), 0), result
+    return units, bank - jnp.where(ok, price, 0), result
 
 
 def order_build(units: Units, bank, buildable, unit_type, point, picked, queued):
@@ -315,7 +408,7 @@ def order_build(units: Units, bank, buildable, unit_type, point, picked, queued)
     distance = squared_length(units.pos - site)
     builder = jnp.argmin(jnp.where(builders, distance, jnp.inf))
     placed = placement(units, buildable, unit_type, site, target)
-    payable = affordable(bank, unit_type)
+    payable = affordable(bank, cost(unit_type))
     result = jnp.where(~builders.any(), int(ActionResult.Error), jnp.where(
         ~tech_ok(units, unit_type), int(ActionResult.TechRequirementsNotMet),
         jnp.where(payable != 0, payable, placed))).astype(jnp.int32)
@@ -324,6 +417,60 @@ def order_build(units: Units, bank, buildable, unit_type, point, picked, queued)
     ordered = ordered.replace(selected=units.selected)
     return jax.tree_util.tree_map(lambda a, b: jnp.where(result == 0, a, b), ordered,
                                   units), result
+
+
+def build_addon(units: Units, bank, next_tag, buildable, kind):
+    """`Build_TechLab_quick`, `Build_Reactor_quick`: each selected idle producer without
+    an add-on starts its own type of add-on of `kind` (int32 `AddOn`) at
+    `ADDON_OFFSET` from it, where the footprint fits, paying for each in slot order
+    while the bank lasts. The add-on starts unfinished, at `START_HEALTH`.
+
+    Args:
+      units: the units.
+      bank: int32[2] the player's minerals and vespene.
+      next_tag: int32 the next unit tag.
+      buildable: bool[H, W] the map's buildable cells.
+      kind: int32 the `AddOn`.
+
+    Returns:
+      (units, bank, next_tag, result int32 `ActionResult`: 0 if any started, else why
+      the first candidate did not).
+    """
+    addon_type = jnp.asarray(ADDON_OF)[units.type, kind]
+    candidates = (units.selected & _own(units) & units.complete & (addon_type > 0)
+                  & (addon_kinds(units)[0] == 0))
+    idle = candidates & jnp.all(units.queue == 0, axis=1)
+    sites = units.pos + jnp.asarray(ADDON_OFFSET, jnp.float32)
+    fits = jax.vmap(lambda t, site: placement(units, buildable, t, site))(addon_type, sites)
+    price = cost(addon_type)  # [N, 2]
+    placeable = idle & (fits == 0)
+    paid_so_far = jnp.cumsum(jnp.where(placeable[:, None], price, 0), axis=0)
+    dead = ~units.alive
+    rank = jnp.cumsum(placeable, dtype=jnp.int32) - 1
+    starts = (placeable & jnp.all(paid_so_far <= bank, axis=-1)
+              & (rank < jnp.sum(dead, dtype=jnp.int32)))
+    # The k-th add-on takes the k-th dead slot ([producer, slot] pairs, as `_spawn`).
+    dead_rank = jnp.cumsum(dead, dtype=jnp.int32) - 1
+    pairs = starts[:, None] & dead[None, :] & (rank[:, None] == dead_rank[None, :])
+    filled = pairs.any(axis=0)
+    producer = jnp.argmax(pairs, axis=0)
+    new = place_where(units, filled, addon_type[producer], Owner.SELF, sites[producer],
+                      next_tag + rank[producer])
+    new = new.replace(
+        progress=jnp.where(filled, 0.0, new.progress),
+        health=jnp.where(filled, new.health * START_HEALTH, new.health),
+        addon=jnp.where(starts, jnp.argmax(pairs, axis=1), new.addon))
+    first = jnp.argmax(candidates)
+    why = jnp.where(
+        ~candidates.any(), int(ActionResult.Error),
+        jnp.where(~idle[first], int(ActionResult.CantQueueThatOrder),
+                  jnp.where(fits[first] != 0, fits[first],
+                            jnp.where(affordable(bank, price[first]) != 0,
+                                      affordable(bank, price[first]),
+                                      int(ActionResult.Error)))))
+    result = jnp.where(starts.any(), 0, why).astype(jnp.int32)
+    spent = jnp.sum(jnp.where(starts[:, None], price, 0), axis=0)
+    return new, bank - spent, next_tag + jnp.sum(starts, dtype=jnp.int32), result
 
 
 def set_rally(units: Units, point, picked):
@@ -340,16 +487,24 @@ def set_rally(units: Units, point, picked):
         rallied=units.rallied | producers), producers.any()
 
 
+def _compact(values, keep):
+    """[..., B] `values` with the items where bool[..., B] `keep` holds moved to the
+    front in order, zeros after them."""
+    b = values.shape[-1]
+    at = jnp.cumsum(keep, axis=-1) - 1
+    moved = keep[..., :, None] & (at[..., :, None] == jnp.arange(b))  # [..., from, to]
+    return jnp.sum(jnp.where(moved, values[..., :, None], 0), axis=-2).astype(values.dtype)
+
+
 def _remove_queued(units: Units, producer, index):
-    """Removes item `index` (int32) from the queue of slot `producer` (int32); returns
-    (units, the removed type)."""
-    row = units.queue[producer]
-    removed = row[index]
-    q = jnp.arange(BUILD_QUEUE)
-    shifted = jnp.where(q >= index, jnp.concatenate([row[1:], jnp.zeros(1, jnp.int32)]), row)
-    work = jnp.where(index == 0, 0.0, units.queue_work[producer])
-    return units.replace(queue=units.queue.at[producer].set(shifted),
-                         queue_work=units.queue_work.at[producer].set(work)), removed
+    """Removes item `index` (int32) from the queue of slot `producer` (int32), with its
+    training work; returns (units, the removed type)."""
+    keep = jnp.arange(BUILD_QUEUE) != index
+    removed = units.queue[producer, index]
+    return units.replace(
+        queue=units.queue.at[producer].set(_compact(units.queue[producer], keep)),
+        queue_work=units.queue_work.at[producer].set(
+            _compact(units.queue_work[producer], keep))), removed
 
 
 def cancel_queued(units: Units, bank, index=None):
@@ -367,7 +522,7 @@ def cancel_queued(units: Units, bank, index=None):
     ok = chosen.any() & (item >= 0) & (item < length[producer])
     new, removed = _remove_queued(units, producer, jnp.clip(item, 0, BUILD_QUEUE - 1))
     units = jax.tree_util.tree_map(lambda a, b: jnp.where(ok, a, b), new, units)
-    refund = jnp.where(ok, cost(removed), 0)
+    refund = jnp.where(ok, queue_cost(units.type[producer], removed), 0)
     return units, bank + refund, jnp.where(ok, 0, int(ActionResult.Error)).astype(jnp.int32)
 
 
@@ -397,7 +552,7 @@ def cancel_construction(units: Units, bank, next_tag):
 
 def production_loop(units: Units, bank, next_tag, buildable) -> Economy:
     """One game loop of production, after the loop's movement: structures placed by
-    arriving SCVs, construction, and training.
+    arriving SCVs, construction, training, and energy.
 
     Args:
       units: the units.
@@ -408,7 +563,15 @@ def production_loop(units: Units, bank, next_tag, buildable) -> Economy:
     units, bank, next_tag, spent, placed = _place_arrivals(units, bank, next_tag, buildable)
     units = _construct(units)
     units, next_tag, trained = _train(units, next_tag)
-    return Economy(units, bank, next_tag, spent, placed | trained)
+    return Economy(_regenerate(units), bank, next_tag, spent, placed | trained)
+
+
+def _regenerate(units: Units) -> Units:
+    """Complete units with energy gain `ENERGY_PER_LOOP`, up to their maximum."""
+    most = _column("max_energy", units.type)
+    gaining = units.complete & (most > 0)
+    return units.replace(energy=jnp.where(
+        gaining, jnp.minimum(units.energy + ENERGY_PER_LOOP, most), units.energy))
 
 
 def _place_arrivals(units: Units, bank, next_tag, buildable):
@@ -430,7 +593,7 @@ def _place_arrivals(units: Units, bank, next_tag, buildable):
     kind_b, site_b, geyser = kind[builder], site[builder], units.order_unit[builder, 0]
     slot = free_slots(units, 1)[0]
     ok = (arrived.any() & (placement(units, buildable, kind_b, site_b, geyser) == 0)
-          & (affordable(bank, kind_b) == 0) & tech_ok(units, kind_b) & (slot < n))
+          & (affordable(bank, cost(kind_b)) == 0) & tech_ok(units, kind_b) & (slot < n))
     paid = jnp.where(ok, cost(kind_b), 0)
     # The structure, unfinished; a Refinery replaces its geyser and takes its gas.
     safe_geyser = jnp.clip(geyser, 0, n - 1)
@@ -459,16 +622,20 @@ def _place_arrivals(units: Units, bank, next_tag, buildable):
 
 
 def _construct(units: Units) -> Units:
-    """Unfinished structures with an SCV constructing them at their edge advance a loop
-    and gain health; SCVs whose structure is finished (or gone) stop."""
+    """Unfinished structures with an SCV constructing them at their edge, and unfinished
+    add-ons of living producers, advance a loop and gain health; SCVs whose structure
+    is finished (or gone) stop."""
     n = units.num_slots
     target = units.order_unit[:, 0]
     safe = jnp.clip(target, 0, n - 1)
     constructing = _own(units) & (units.orders[:, 0] == Order.CONSTRUCT)
     gap = (jnp.sqrt(squared_length(units.pos - units.pos[safe]))
            - _column("radius", units.type) - _column("radius", units.type[safe]))
-    working = constructing & (target >= 0) & (gap <= 0.2)
-    worked = jnp.any(targeted_by(safe, n) & working[:, None], axis=0)
+    working = (constructing & (target >= 0) & (gap <= 0.2)
+               & (jnp.asarray(ADDON_KIND)[units.type[safe]] == 0))
+    building_addon = addon_kinds(units)[0] > 0
+    worked_slot = jnp.where(working, safe, jnp.where(building_addon, units.addon, NO_TARGET))
+    worked = jnp.any(targeted_by(worked_slot, n), axis=0)
     build_time = _column("build_time", units.type)
     advancing = worked & units.alive & (units.progress < build_time)
     gain = (1.0 - START_HEALTH) * _column("max_health", units.type) / jnp.maximum(build_time, 1)
@@ -483,62 +650,75 @@ def _construct(units: Units) -> Units:
 
 
 def _train(units: Units, next_tag):
-    """Queue heads train while the supply allows; finished units appear beside their
+    """Queue heads (the first unit, the first two with a Reactor) train while the
+    supply allows and no add-on is being built; finished units appear beside their
     producer and follow its rally.
 
     Returns:
       (units, next_tag, trained bool[N] the new units' slots).
     """
     n = units.num_slots
-    head = units.queue[:, 0]
-    producing = _own(units) & units.complete & (head != 0)
-    food = _column("food", head)
+    kind, addon_done = addon_kinds(units)
+    ready = _own(units) & units.complete & ((kind == 0) | addon_done)
+    heads = jnp.arange(BUILD_QUEUE) < _lanes(units)[:, None]
+    producing = ready[:, None] & heads & (units.queue != 0)  # [N, B]
+    food = _column("food", units.queue)
     # Heads not yet started take the free supply in slot order.
     started = producing & (units.queue_work > 0)
     waiting = producing & ~started
     free = food_cap(units) - food_used(units)
-    claimed = jnp.cumsum(jnp.where(waiting, food, 0.0))
+    claimed = jnp.cumsum(jnp.where(waiting, food, 0.0).reshape(-1)).reshape(waiting.shape)
     active = started | (waiting & (claimed <= free))
     work = jnp.where(active, units.queue_work + 1.0, units.queue_work)
-    done = active & (work >= _column("build_time", head))
+    done = active & (work >= _column("build_time", units.queue))
+    # A finished upgrade (alone in its queue) turns its structure into the new form.
+    upgraded = done & jnp.asarray(morphs.UPGRADE)[units.type[:, None], units.queue]
+    units = morphs.upgrade_done(units, upgraded[:, 0])
+    units = units.replace(queue=jnp.where(upgraded, 0, units.queue))
+    work, done = jnp.where(upgraded, 0.0, work), done & ~upgraded
     # Units finish rarely: the spawning is computed only in loops where one does.
     return lazy_where(done.any(), lambda args: _spawn(*args), (units, next_tag, done, work),
                       (units.replace(queue_work=work), next_tag, jnp.zeros(n, bool)))
 
 
 def _spawn(units: Units, next_tag, done, work):
-    """`_train`'s finished units (bool[N] `done`, by producer) appear beside their
-    producers; `work` (float32[N]) is the producers' queue work this loop.
+    """`_train`'s finished units (bool[N, B] `done`, by producer and queue place: the
+    first two at most) appear beside their producers; `work` (float32[N, B]) is the
+    queue work this loop.
 
     Returns:
       (units, next_tag, trained bool[N] the new units' slots).
     """
     n = units.num_slots
-    head = units.queue[:, 0]
-    # Each finished unit takes the next free slot (the k-th finished producer the k-th
-    # dead slot); without one it waits. Matched over [producer, slot] pairs and written
-    # by selects, not scatters (`place_where`).
-    rank = jnp.cumsum(done, dtype=jnp.int32) - 1
+    # The finished units of the first two queue places, producer by producer ([2N]).
+    finished = done[:, :2].reshape(-1)
+    made = units.queue[:, :2].reshape(-1)
+    maker = jnp.repeat(jnp.arange(n), 2)
+    # Each finished unit takes the next free slot (the k-th the k-th dead slot); without
+    # one it waits. Matched over [unit, slot] pairs and written by selects, not scatters
+    # (`place_where`).
+    rank = jnp.cumsum(finished, dtype=jnp.int32) - 1
     dead = ~units.alive
     dead_rank = jnp.cumsum(dead, dtype=jnp.int32) - 1
-    spawns = done & (rank < jnp.sum(dead, dtype=jnp.int32))
+    spawns = finished & (rank < jnp.sum(dead, dtype=jnp.int32))
     pairs = spawns[:, None] & dead[None, :] & (rank[:, None] == dead_rank[None, :])
     filled = pairs.any(axis=0)
-    producer = jnp.argmax(pairs, axis=0)  # [N]: the producer of each filled slot
-    radius = _column("radius", units.type) + _column("radius", head)
+    source = jnp.argmax(pairs, axis=0)  # [N]: the finished unit of each filled slot
+    producer = maker[source]
+    unit_type = made[source]
+    radius = _column("radius", units.type)[producer] + _column("radius", unit_type)
     to_rally = units.rally - units.pos
     length = jnp.sqrt(squared_length(to_rally))
     towards = jnp.where((units.rallied & (length > 1e-4))[:, None],
                         to_rally / jnp.maximum(length, 1e-4)[:, None], jnp.array([0.0, -1.0]))
-    spawn_pos = units.pos + towards * radius[:, None]
+    spawn_pos = units.pos[producer] + towards[producer] * radius[:, None]
     # Tags in production order.
-    new = place_where(units, filled, head[producer], Owner.SELF, spawn_pos[producer],
-                      next_tag + rank[producer])
+    new = place_where(units, filled, unit_type, Owner.SELF, spawn_pos, next_tag + rank[source])
     # Rallies: a new SCV rallied to a resource gathers it, others move to the point.
     rally_unit = jnp.clip(units.rally_unit, 0, n - 1)
     to_resource = ((units.rally_unit >= 0) & units.alive[rally_unit]
-                   & (units.contents[rally_unit] > 0) & (head == UnitType.SCV))
-    order = jnp.where(units.rallied, jnp.where(to_resource, Order.GATHER, Order.MOVE),
+                   & (units.contents[rally_unit] > 0))[producer] & (unit_type == UnitType.SCV)
+    order = jnp.where(units.rallied[producer], jnp.where(to_resource, Order.GATHER, Order.MOVE),
                       Order.NONE)
     head_of_queue = filled[:, None] & (jnp.arange(new.orders.shape[1]) == 0)  # [N, Q]
 
@@ -547,13 +727,13 @@ def _spawn(units: Units, next_tag, done, work):
         return jnp.where(where, value[:, None], old)
 
     new = new.replace(
-        orders=first_order(new.orders, order[producer]),
+        orders=first_order(new.orders, order),
         order_pos=first_order(new.order_pos, units.rally[producer]),
         order_unit=first_order(new.order_unit,
-                               jnp.where(to_resource, units.rally_unit, NO_TARGET)[producer]),
-        patrol_origin=jnp.where(filled[:, None], spawn_pos[producer], new.patrol_origin))
-    queue = jnp.where(spawns[:, None], jnp.concatenate(
-        [units.queue[:, 1:], jnp.zeros((n, 1), jnp.int32)], axis=1), units.queue)
-    new = new.replace(queue=queue, queue_work=jnp.where(spawns, 0.0, jnp.where(
-        done, work - 1.0, work)))
+                               jnp.where(to_resource, units.rally_unit[producer], NO_TARGET)),
+        patrol_origin=jnp.where(filled[:, None], spawn_pos, new.patrol_origin))
+    # The trained units leave their queues; finished ones without a slot wait a loop.
+    left = jnp.pad(spawns.reshape(n, 2), ((0, 0), (0, BUILD_QUEUE - 2)))
+    work = jnp.where(done & ~left, work - 1.0, work)
+    new = new.replace(queue=_compact(units.queue, ~left), queue_work=_compact(work, ~left))
     return new, next_tag + jnp.sum(spawns, dtype=jnp.int32), filled

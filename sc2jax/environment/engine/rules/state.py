@@ -21,7 +21,8 @@ from sc2jax.environment.interface import observation_tables as tables
 DEFAULT_FACING = -math.pi / 2
 
 ORDER_QUEUE = 4
-BUILD_QUEUE = 5
+BUILD_QUEUE = 8
+"""A producer's training queue: 5 units, 8 with a Reactor (`production.queue_room`)."""
 NO_TARGET = -1
 
 
@@ -118,11 +119,14 @@ class Units:
       progress: float32[N] loops of construction done; a unit is complete once this
         reaches its type's `build_time` (units the map creates start complete).
       queue: int32[N, B] a producer's training queue of `UnitType`s, 0 for empty.
-      queue_work: float32[N] loops of training done on `queue[:, 0]`.
+      queue_work: float32[N, B] loops of training done on each queued unit (the first,
+        and with a Reactor the first two, train at once).
       rally: float32[N, 2] a producer's rally point.
       rally_unit: int32[N] the unit the rally targets (new workers gather from a
         resource), or -1.
       rallied: bool[N] a rally is set.
+      addon: int32[N] a producer's add-on (Tech Lab or Reactor) slot, or -1; valid
+        while that slot holds a living add-on beside it (`production.addon_kinds`).
     """
 
     alive: jax.Array
@@ -154,6 +158,7 @@ class Units:
     rally: jax.Array
     rally_unit: jax.Array
     rallied: jax.Array
+    addon: jax.Array
 
     @property
     def num_slots(self) -> int:
@@ -184,8 +189,9 @@ class Units:
             patrol_origin=f(n, 2), target=jnp.full((n,), NO_TARGET, jnp.int32),
             selected=jnp.zeros(n, bool), groups=i(n), cargo=f(n), work=f(n), contents=f(n),
             home=jnp.full((n,), NO_TARGET, jnp.int32), gas=jnp.zeros(n, bool), progress=f(n),
-            queue=i(n, b), queue_work=f(n), rally=f(n, 2),
-            rally_unit=jnp.full((n,), NO_TARGET, jnp.int32), rallied=jnp.zeros(n, bool))
+            queue=i(n, b), queue_work=f(n, b), rally=f(n, 2),
+            rally_unit=jnp.full((n,), NO_TARGET, jnp.int32), rallied=jnp.zeros(n, bool),
+            addon=jnp.full((n,), NO_TARGET, jnp.int32))
 
 
 @struct.dataclass
@@ -246,7 +252,7 @@ def _new_units(units: Units, k: int, unit_type, owner, positions, tags, selected
         groups=0, cargo=0.0, work=0.0, contents=jnp.asarray(data.contents)[types],
         home=NO_TARGET, order_type=0, gas=False,
         progress=jnp.asarray(data.build_time)[types], queue=0, queue_work=0.0,
-        rally_unit=NO_TARGET, rallied=False)
+        rally_unit=NO_TARGET, rallied=False, addon=NO_TARGET)
     fields = {name: getattr(units, name) for name in values}
     return {name: jnp.broadcast_to(jnp.asarray(value, fields[name].dtype),
                                    (k,) + fields[name].shape[1:])
