@@ -23,7 +23,7 @@ from sc2jax.environment.engine.availability import (
     available_actions,
 )
 from sc2jax.environment.engine.render import Renderer, pick_unit
-from sc2jax.environment.engine.rules import commands, morphs, production
+from sc2jax.environment.engine.rules import commands, liftoff, morphs, production
 from sc2jax.environment.engine.rules.geometry import clamp_camera
 from sc2jax.environment.engine.rules.state import NO_TARGET, EnvState, Order, Owner
 from sc2jax.environment.engine.rules.units import UNIT_DATA, UnitType, game_name
@@ -62,6 +62,8 @@ class Kind(enum.IntEnum):
     BUILD_QUEUE = 22
     BUILD_ADDON = 23
     MORPH = 24
+    LIFT = 25
+    LAND = 26
 
 
 _BY_NAME = {
@@ -80,6 +82,7 @@ _BY_NAME = {
     "select_idle_worker": Kind.SELECT_IDLE_WORKER, "build_queue": Kind.BUILD_QUEUE,
     "Build_TechLab_quick": Kind.BUILD_ADDON, "Build_Reactor_quick": Kind.BUILD_ADDON,
     **{name: Kind.MORPH for name in morphs.MODES},
+    "Lift_quick": Kind.LIFT, "Land_screen": Kind.LAND,
 }
 _BY_NAME.update({name: Kind.BUILD if name.startswith("Build_") else Kind.TRAIN
                  for name in MAKE_FUNCTIONS})
@@ -243,6 +246,8 @@ def apply_action(state: EnvState, action: DenseAction, renderer: Renderer,
         lambda: cancel_queued(a.build_queue_id),
         build_addon,
         lambda: keep_camera(morphs.switch_mode(units, function)),
+        lambda: paid(*liftoff.lift(units)),
+        lambda: paid(*liftoff.order_land(units, renderer.buildable, ctx.point, a.queued)),
     ]
     if not economy:
         branches = branches[:Kind.BUILD]

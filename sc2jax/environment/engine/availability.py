@@ -45,7 +45,11 @@ TOWN_HALL_CARD = ("Train_SCV_quick", "Rally_Workers_screen", "Rally_Workers_mini
 ADDON_CARD = ("Build_TechLab_quick", "Build_Reactor_quick")
 
 PRODUCER_CARD = ("Rally_Units_screen", "Rally_Units_minimap", "Smart_screen",
-                 "Smart_minimap", "Cancel_Last_quick")
+                 "Smart_minimap", "Cancel_Last_quick", "Lift_quick")
+
+FLYING_CARD = ("Move_screen", "Move_minimap", "Stop_quick", "Smart_screen", "Smart_minimap",
+               "Land_screen")
+"""A flying structure's card (its Patrol, Hold, add-ons and rally are not modelled)."""
 
 COMMAND_CARDS: dict[UnitType, tuple[str, ...]] = {
     UnitType.MARINE: COMBAT_CARD,
@@ -62,8 +66,12 @@ COMMAND_CARDS: dict[UnitType, tuple[str, ...]] = {
     UnitType.MEDIVAC: ("HoldPosition_quick", "Move_screen", "Move_minimap", "Patrol_screen",
                        "Patrol_minimap", "Smart_screen", "Smart_minimap", "Stop_quick"),
     UnitType.SCV: SCV_CARD,
-    UnitType.COMMAND_CENTER: TOWN_HALL_CARD + ("Morph_OrbitalCommand_quick",),
-    UnitType.ORBITAL_COMMAND: TOWN_HALL_CARD,
+    UnitType.COMMAND_CENTER: TOWN_HALL_CARD + ("Morph_OrbitalCommand_quick", "Lift_quick"),
+    UnitType.ORBITAL_COMMAND: TOWN_HALL_CARD + ("Lift_quick",),
+    **{flying: FLYING_CARD for flying in (UnitType.COMMAND_CENTER_FLYING,
+                                          UnitType.ORBITAL_COMMAND_FLYING,
+                                          UnitType.BARRACKS_FLYING, UnitType.FACTORY_FLYING,
+                                          UnitType.STARPORT_FLYING)},
     UnitType.SUPPLY_DEPOT: ("Morph_SupplyDepot_Lower_quick",),
     UnitType.SUPPLY_DEPOT_LOWERED: ("Morph_SupplyDepot_Raise_quick",),
     UnitType.BARRACKS: ("Train_Marine_quick", "Train_Reaper_quick", "Train_Marauder_quick")

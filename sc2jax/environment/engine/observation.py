@@ -13,11 +13,11 @@ from sc2jax.environment.engine.availability import (
     idle_worker_count,
 )
 from sc2jax.environment.engine.render import Renderer, player_relative
-from sc2jax.environment.engine.rules import production
+from sc2jax.environment.engine.rules import liftoff, production
 from sc2jax.environment.engine.rules.geometry import squared_length
 from sc2jax.environment.engine.rules.harvest import nearest_depot
 from sc2jax.environment.engine.rules.state import EnvState, Order, Owner, Units
-from sc2jax.environment.engine.rules.units import UNIT_DATA, UnitType
+from sc2jax.environment.engine.rules.units import UNIT_DATA, UnitType, game_name
 from sc2jax.environment.engine.ui import NUM_GROUPS, selection_order
 from sc2jax.environment.interface import observation_tables as tables
 from sc2jax.environment.interface import specs
@@ -36,6 +36,10 @@ for _order, _function in ((Order.MOVE, "Move_screen"), (Order.ATTACK_MOVE, "Atta
                           (Order.GATHER, "Harvest_Gather_screen"),
                           (Order.RETURN, "Harvest_Return_quick")):
     ORDER_ABILITY[_order] = SPECIFIC_ABILITY[FUNCTIONS[_function].ability_id]
+LAND_ABILITY = np.zeros(len(UnitType), np.int32)
+"""The ability landing as each structure (a LAND order's type)."""
+for _type in np.flatnonzero(liftoff.FLYING_FORM):
+    LAND_ABILITY[_type] = FUNCTIONS[f"Land_{game_name(UnitType(_type))}_screen"].ability_id
 
 
 def build_fraction(units: Units):
@@ -179,8 +183,9 @@ def api_units(state: EnvState, renderer: Renderer) -> dict:
     kind, addon_done = production.addon_kinds(units)
     addon = jnp.clip(units.addon, 0, n - 1)
     building_addon = (kind > 0) & ~addon_done
-    orders = jnp.where(build_or_construct, jnp.asarray(MAKE_ABILITY)[built],
-                       jnp.asarray(ORDER_ABILITY)[units.orders])
+    orders = jnp.where(build_or_construct, jnp.asarray(MAKE_ABILITY)[built], jnp.where(
+        units.orders == Order.LAND, jnp.asarray(LAND_ABILITY)[units.order_type],
+        jnp.asarray(ORDER_ABILITY)[units.orders]))
     orders = orders.at[:, 0].set(jnp.where(building_addon, jnp.asarray(MAKE_ABILITY)[t[addon]],
                                            orders[:, 0]))
     order_abilities = jnp.concatenate([orders, jnp.asarray(MAKE_ABILITY)[units.queue]], axis=1)

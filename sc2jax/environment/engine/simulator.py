@@ -25,7 +25,7 @@ from sc2jax.environment.engine.availability import CARD_TABLE
 from sc2jax.environment.engine.minigames import get_map
 from sc2jax.environment.engine.observation import observe
 from sc2jax.environment.engine.render import Renderer, sight_grid
-from sc2jax.environment.engine.rules import production, score
+from sc2jax.environment.engine.rules import liftoff, production, score
 from sc2jax.environment.engine.rules.dynamics import facing_of, game_loop, turned
 from sc2jax.environment.engine.rules.state import (
     NUM_SCORE_CUMULATIVE,
@@ -299,7 +299,8 @@ class Simulator:
             next_tag, spent = state.next_tag, jnp.zeros(2, jnp.int32)
             if game.has_production:
                 economy = production.production_loop(units, bank, next_tag, buildable)
-                units, bank, next_tag = economy.units, economy.bank, economy.next_tag
+                units = liftoff.land_arrivals(economy.units, buildable)
+                bank, next_tag = economy.bank, economy.next_tag
                 spent = economy.spent
                 events = events._replace(created=economy.created)
             vital = state.score_by_vital.reshape(-1)  # [3, 3]: life dealt, life taken.

@@ -720,3 +720,77 @@ def test_a_mode_switches_at_once_and_holds_fire_for_its_morph_time(first, second
     state, ts = act(step, state, F[back]("now"))
     assert result(ts) == 0 and int(state.units.type[slot]) == first
     assert bool(state.units.complete[slot])
+
+
+def test_a_barracks_lifts_off_flies_and_lands_taking_the_addon_beside_it():
+    flying = row(UnitType.BARRACKS_FLYING)
+    assert flying["morphs_from"] == "Barracks" and flying["flying"]
+    state, step = start()
+    state = _with_units(state, [(UnitType.BARRACKS, PRODUCER_SITE)] + DEPOTS)
+    state = _with_addon(state, UnitType.BARRACKS_TECH_LAB)
+    barracks = slots(state, UnitType.BARRACKS)[0]
+    lab = int(state.units.addon[barracks])
+    state, ts = _select_producer(step, state)
+    assert F.Lift_quick.id in available(ts) and F.Train_Marauder_quick.id in available(ts)
+    state, ts = act(step, state, F.Lift_quick("now"))
+    assert result(ts) == 0 and int(state.units.type[barracks]) == UnitType.BARRACKS_FLYING
+    # Flying: it moves at its speed, trains nothing, and leaves its Tech Lab behind.
+    assert F.Land_screen.id in available(ts) and F.Train_Marine_quick.id not in available(ts)
+    assert int(production.addon_kinds(state.units)[0][barracks]) == 0
+    away = (PRODUCER_SITE[0], PRODUCER_SITE[1] + 4)
+    state, _ = act(step, state, F.Move_screen("now", pixel(state, away)))
+    speed = flying["speed"] / 16  # World units per game loop (Normal speed's second).
+    travelled = np.linalg.norm(np.asarray(state.units.pos[barracks]) - PRODUCER_SITE)
+    np.testing.assert_allclose(travelled, 8 * speed, atol=1e-4)
+    # Landing on its Tech Lab's own footprint fails: the order ends, it hovers.
+    state, ts = act(step, state, F.Land_screen("now", pixel(state, (ADDON_SITE[0] + 1,
+                                                                     ADDON_SITE[1]))))
+    assert result(ts) == ActionResult.CantFindPlacementLocation
+    # Landed back by the Tech Lab, the Barracks has it again.
+    state, ts = act(step, state, F.Land_screen("now", pixel(state, PRODUCER_SITE)))
+    assert result(ts) == 0
+    state, _ = wait(step, state, 6)
+    assert int(state.units.type[barracks]) == UnitType.BARRACKS
+    np.testing.assert_allclose(np.asarray(state.units.pos[barracks]), PRODUCER_SITE)
+    assert int(state.units.addon[barracks]) == lab
+    state, ts = _select_producer(step, state)
+    assert F.Train_Marauder_quick.id in available(ts)
+
+
+def test_a_factory_landing_by_a_barracks_tech_lab_takes_it_as_its_own():
+    state, step = start()
+    state = _with_units(state, [(UnitType.FACTORY_FLYING, PRODUCER_SITE)] + DEPOTS)
+    state = _with_units(state, [(UnitType.BARRACKS_TECH_LAB, ADDON_SITE)])
+    (lab,) = slots(state, UnitType.BARRACKS_TECH_LAB)
+    state, ts = _select_producer(step, state)
+    state, ts = act(step, state, F.Land_screen("now", pixel(state, PRODUCER_SITE)))
+    assert result(ts) == 0
+    (factory,) = slots(state, UnitType.FACTORY)
+    assert int(state.units.type[lab]) == UnitType.FACTORY_TECH_LAB
+    assert int(production.addon_kinds(state.units)[0][factory]) == production.AddOn.TECH_LAB
+
+
+def test_a_command_center_lifts_only_idle_and_keeps_its_supply_flying():
+    state, step = start()
+    cap = int(production.food_cap(state.units))
+    state, _ = select_cc(step, state)
+    busy, _ = act(step, state, F.Train_SCV_quick("now"))
+    _, ts = act(step, busy, F.Lift_quick("now"))
+    assert result(ts) == ActionResult.CantQueueThatOrder
+    state, ts = act(step, state, F.Lift_quick("now"))
+    assert result(ts) == 0
+    (cc,) = slots(state, UnitType.COMMAND_CENTER_FLYING)
+    assert int(production.food_cap(state.units)) == cap
+    assert F.Train_SCV_quick.id not in available(ts)
+    # Sent to land where a depot then goes up before it arrives: its order ends there,
+    # and it hovers.
+    # (A Command Center keeps 3 cells from resources on this map at x 31.5-34.5, y 27.5.)
+    site = (32.5, 27.5)
+    state, ts = act(step, state, F.Land_screen("now", pixel(state, site)))
+    assert result(ts) == 0 and int(state.units.orders[cc, 0]) == Order.LAND
+    np.testing.assert_allclose(np.asarray(state.units.order_pos[cc, 0]), site)
+    state = _with_units(state, [(UnitType.SUPPLY_DEPOT, (site[0] + 0.5, site[1] + 0.5))])
+    state, _ = wait(step, state, 7)
+    assert int(state.units.type[cc]) == UnitType.COMMAND_CENTER_FLYING
+    assert int(state.units.orders[cc, 0]) == Order.NONE
+    np.testing.assert_allclose(np.asarray(state.units.pos[cc]), site, atol=1e-3)

@@ -349,7 +349,7 @@ def game_loop(units: Units, key, playable, bursts: bool = False, workers: bool =
     chasing = has_target & ~in_range & (order != Order.HOLD)
     goal = jnp.where(chasing[:, None], pos[safe_target], order_goal)
     walking = ((order == Order.MOVE) | (order == Order.ATTACK_MOVE) | (order == Order.PATROL)
-               | (order == Order.BUILD))
+               | (order == Order.BUILD) | (order == Order.LAND))
     moving = alive & (chasing | (walking & ~has_target)) & (data.speed > 0)
     to_goal = goal - pos
     goal_dist = jnp.sqrt(squared_length(to_goal) + 1e-12)
@@ -583,9 +583,10 @@ def _end_arrived(units: Units, arrived) -> Units:
 
 
 def colliding(data):
-    """bool[N]: which of N units (their `UNIT_DATA` rows) collide: units with health and
-    structures; items (beacons, shards) have a radius for rendering only."""
-    return (data.max_health > 0) | ((data.attributes & Attribute.STRUCTURE) > 0)
+    """bool[N]: which of N units (their `UNIT_DATA` rows) collide: ground units with
+    health and structures; items (beacons, shards) have a radius for rendering only, and
+    flying units pass over everything."""
+    return ((data.max_health > 0) | ((data.attributes & Attribute.STRUCTURE) > 0)) & ~data.flying
 
 
 # Collision pushes are summed in fixed point, in units of 2**-PUSH_BITS world units

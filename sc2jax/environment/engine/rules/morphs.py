@@ -13,7 +13,7 @@ forms with a `morphs_from`); the ability of each is a PySC2 function.
   in its morph time), at an idle structure that then trains nothing else; when done the
   structure becomes the new form, with the new form's starting energy.
 
-Lifting off and landing (the flying forms) are not modelled yet.
+Lifting off and landing, to and from the flying forms, are `liftoff`'s.
 """
 
 from __future__ import annotations

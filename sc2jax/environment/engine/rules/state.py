@@ -79,6 +79,7 @@ class Order(enum.IntEnum):
     RETURN = 7
     BUILD = 8  # Walk to the order's point and place a structure of the order's type.
     CONSTRUCT = 9  # Build the order's target unit, an unfinished structure.
+    LAND = 10  # Fly to the order's point and land as the order's type (`liftoff`).
 
 
 class Owner(enum.IntEnum):
