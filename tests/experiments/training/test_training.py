@@ -3,6 +3,7 @@ settings; the actor and the loops are in test_actor_learner.py)."""
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import os
 import subprocess
@@ -141,6 +142,15 @@ def test_train_resumes_exactly_where_it_stopped(tmp_path):
     with pytest.raises(ValueError, match="another config"):
         trainer.train(TrainConfig(**{**TINY.to_json(), "learning_rate": 1e-2}), interrupted,
                       log=lambda _: None, progress=False)
+    # A run started from another's last parameters (`init_from`: an A3C run here, a
+    # replay-trained one in test_cloning) begins from them, and says so.
+    source = str(tmp_path / "a")
+    config = dataclasses.replace(TINY, init_from=source)
+    jax.tree.map(np.testing.assert_array_equal, trainer.start_params(trainer.build(config)),
+                 straight.state.learner.params)
+    lines = []
+    trainer.train(config, str(tmp_path / "c"), log=lines.append, progress=False)
+    assert f"Starting from the parameters of {source}" in lines
 
 
 def test_trained_run_can_be_evaluated(tmp_path):
