@@ -293,7 +293,8 @@ class Simulator:
                                       field_slots=game.field_slots,
                                       team_split=game.team_split,
                                       jitter_slots=game.num_slots,
-                                      sized=game.slot_sizes is not None, face=False)
+                                      sized=game.slot_sizes is not None, face=False,
+                                      air=game.has_air)
             bank = jnp.stack([state.minerals + events.minerals.astype(jnp.int32),
                               state.vespene + events.vespene.astype(jnp.int32)])
             next_tag, spent = state.next_tag, jnp.zeros(2, jnp.int32)

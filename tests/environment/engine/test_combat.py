@@ -26,6 +26,7 @@ from sc2jax.environment.engine.minigames.wave_combat import (
 )
 from sc2jax.environment.engine.rules.dynamics import LoopEvents, _cooldown_jitter, game_loop
 from sc2jax.environment.engine.rules.state import Order, Outcome, Owner, place, place_where
+from sc2jax.environment.engine.rules.units import UNIT_DATA, UnitType
 from tests.environment.helpers import (
     PARAMS,
     assert_trees_equal,
@@ -391,3 +392,29 @@ def test_a_run_whose_last_slot_fills_runs_again_on_more_slots():
     leading = jax.jit(sim.advance)(state, action)
     assert_trees_equal(leading, _every_slot_step()(state, action, PARAMS)[0])
     assert int(leading.units.alive[4:].sum()) == 19
+
+
+_AIR_LOOP = jax.jit(functools.partial(game_loop, playable=PLAYABLE, air=True))
+
+
+@pytest.mark.parametrize("attacker, hits", [
+    (UnitType.VIKING_FIGHTER, {UnitType.MEDIVAC}), (UnitType.SIEGE_TANK, {UnitType.MARINE}),
+    (UnitType.MARINE, {UnitType.MEDIVAC, UnitType.MARINE})], ids=lambda v: getattr(v, "name", ""))
+def test_weapons_hit_only_the_layers_they_target(attacker, hits):
+    # Each attacker holds 3 from an enemy in the air (a Medivac) or on the ground (a
+    # Marine, holding too); with `air`, it fires only at what its weapon targets, and an
+    # order to attack what it cannot hit ends.
+    for enemy in (UnitType.MEDIVAC, UnitType.MARINE):
+        units = units_of([(0, attacker, SELF, (28.0, 28.0)), (1, enemy, ENEMY, (31.0, 28.0))],
+                         [(0, Order.HOLD, None, (28.0, 28.0)),
+                          (1, Order.HOLD, None, (31.0, 28.0))])
+        key = jax.random.PRNGKey(0)
+        for _ in range(40):
+            key, k = jax.random.split(key)
+            units, _ = _AIR_LOOP(units, k)
+        hurt = float(units.health[1]) < UNIT_DATA.max_health[enemy]
+        assert hurt == (enemy in hits), (attacker.name, enemy.name)
+        ordered = units_of([(0, attacker, SELF, (28.0, 28.0)), (1, enemy, ENEMY, (31.0, 28.0))],
+                           [(0, Order.ATTACK_UNIT, 1, (31.0, 28.0))])
+        ordered, _ = _AIR_LOOP(ordered, key)
+        assert (int(ordered.orders[0, 0]) == Order.ATTACK_UNIT) == (enemy in hits)

@@ -139,6 +139,11 @@ class MiniGame:
         return any(UNIT_DATA.burst[t] > 0 for t in self.unit_types)
 
     @property
+    def has_air(self) -> bool:
+        """Whether a unit type of the map flies (weapons then hit only what they target)."""
+        return any(UNIT_DATA.flying[t] for t in self.unit_types)
+
+    @property
     def has_workers(self) -> bool:
         """Whether the map has workers (SCVs), which harvest."""
         return UnitType.SCV in self.unit_types

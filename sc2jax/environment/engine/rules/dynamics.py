@@ -33,7 +33,7 @@ from sc2jax.environment.engine.rules.state import (
     slot_rows,
     targeted_by,
 )
-from sc2jax.environment.engine.rules.units import UNIT_DATA, Attribute
+from sc2jax.environment.engine.rules.units import UNIT_DATA, Attribute, Targets
 from sc2jax.environment.engine.xla import threefry
 from sc2jax.environment.engine.xla.fusion import first_argmin, mask_once
 from sc2jax.environment.engine.xla.lazy import lazy_where
@@ -135,11 +135,19 @@ class PairBlock(NamedTuple):
         return self.gap[jnp.arange(self.gap.shape[0]), self.column(slots)]
 
 
-def pair_blocks(units: Units, data, team_split: int | None) -> list[PairBlock]:
+def layer(flying):
+    """int32[...]: the `Targets` flag a weapon needs to hit each unit (bool[...] flying):
+    AIR for flying units, GROUND for the others."""
+    return jnp.where(flying, int(Targets.AIR), int(Targets.GROUND))
+
+
+def pair_blocks(units: Units, data, team_split: int | None,
+                air: bool = False) -> list[PairBlock]:
     """The pairs among which combat happens: all [N, N] pairs, or, where one side's
     units are only ever in the first `team_split` slots and the other side's only in
     the rest, the two blocks across the split (the rows of the two together are all N
-    slots, in order)."""
+    slots, in order). With `air` (static), a row's enemies are only the columns its
+    weapon can hit (`targets`)."""
     n = units.num_slots
     if team_split is None:
         spans = [(slice(0, n), slice(0, n))]
@@ -152,8 +160,16 @@ def pair_blocks(units: Units, data, team_split: int | None) -> list[PairBlock]:
         gap = dist - data.radius[rows, None] - data.radius[None, cols]
         enemy = (hostile(units.owner[rows], units.owner[cols]) & units.alive[rows, None]
                  & units.alive[None, cols])
+        if air:
+            enemy = enemy & ((data.targets[rows, None] & layer(data.flying[None, cols])) > 0)
         blocks.append(PairBlock(rows, cols, dist, gap, enemy))
     return blocks
+
+
+def hits_layer(data, target_type):
+    """bool[N]: whether each unit's weapon (its `UNIT_DATA` rows) can hit a unit of
+    `target_type` (int32[N])."""
+    return (data.targets & layer(jnp.asarray(UNIT_DATA.flying)[target_type])) > 0
 
 
 def _rows(blocks: list[PairBlock], per_block):
@@ -286,7 +302,8 @@ def game_loop(units: Units, key, playable, bursts: bool = False, workers: bool =
               field_slots: int | None = None,
               team_split: int | None = None,
               jitter_slots: int | None = None,
-              sized: bool = False, face: bool = True) -> tuple[Units, LoopEvents]:
+              sized: bool = False, face: bool = True,
+              air: bool = False) -> tuple[Units, LoopEvents]:
     """Advances all units by one game loop.
 
     Args:
@@ -313,6 +330,9 @@ def game_loop(units: Units, key, playable, bursts: bool = False, workers: bool =
         every count (`_resolve_collisions`).
       face: (static) set the units' facing; False leaves it, for a caller that sets it
         from the events' `heading` after several loops (`facing_of`).
+      air: (static) whether the map has flying units: a weapon then hits only what its
+        `targets` allow (a Viking in the air only air units, a Siege Tank only ground
+        ones), where maps without them skip the check.
 
     Returns:
       The new units and the loop's events.
@@ -323,14 +343,17 @@ def game_loop(units: Units, key, playable, bursts: bool = False, workers: bool =
     pos = units.pos
 
     if combat:  # Pair distances; maps without enemies need none.
-        blocks = pair_blocks(units, data, team_split)
+        blocks = pair_blocks(units, data, team_split, air)
 
     # Attack-unit orders whose target is gone are complete (only an enemy under the
     # cursor gives one, so maps without enemies have none).
     if combat:
         ordered = units.order_unit[:, 0]
-        target_gone = (units.orders[:, 0] == Order.ATTACK_UNIT) & ~alive[jnp.clip(ordered, 0,
-                                                                                  n - 1)]
+        safe_ordered = jnp.clip(ordered, 0, n - 1)
+        target_gone = (units.orders[:, 0] == Order.ATTACK_UNIT) & ~alive[safe_ordered]
+        if air:  # An order to attack what the weapon cannot hit ends too.
+            target_gone = target_gone | ((units.orders[:, 0] == Order.ATTACK_UNIT)
+                                         & ~hits_layer(data, units.type[safe_ordered]))
         units = pop_order(units, target_gone & alive)
     order = units.orders[:, 0]
 
@@ -442,6 +465,8 @@ def game_loop(units: Units, key, playable, bursts: bool = False, workers: bool =
         answer = jnp.where(attacker >= 0, attacker, called)
         idle = units.orders[:, 0] == Order.NONE
         retaliate = idle & (answer >= 0) & (units.target < 0) & (data.damage > 0)
+        if air:
+            retaliate = retaliate & hits_layer(data, units.type[jnp.clip(answer, 0, n - 1)])
         new_target = jnp.where(retaliate, answer, target)
 
     health = units.health - damage
