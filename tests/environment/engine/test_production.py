@@ -670,9 +670,11 @@ def test_a_command_center_upgrades_to_an_orbital_command_alone_in_its_queue():
     state = _with_units(state, [(UnitType.BARRACKS, PRODUCER_SITE)])
     state, ts = select_cc(step, state)
     assert F.Morph_OrbitalCommand_quick.id in available(ts)
+    worth = int(score.blizzard_score(state))
     state, ts = act(step, state, F.Morph_OrbitalCommand_quick("now"))
     price = data["minerals"] - row(UnitType.COMMAND_CENTER)["minerals"]
     assert result(ts) == 0 and price == 150 and int(state.minerals) == 1000 - price
+    assert int(score.blizzard_score(state)) == worth  # Its price, from bank to queue.
     assert ts.observation["production_queue"][0, 0] == F.Morph_OrbitalCommand_quick.ability_id
     _, ts = act(step, state, F.Train_SCV_quick("now"))
     assert result(ts) == ActionResult.CantQueueThatOrder  # Busy upgrading.
@@ -687,8 +689,10 @@ def test_a_command_center_upgrades_to_an_orbital_command_alone_in_its_queue():
     # Its starting 50 energy, then 0.5625 per game second (here the rest of the step).
     assert data["start_energy"] == 50
     assert float(state.units.energy[cc]) == pytest.approx(50 + 0.5625 / 16 * 1, abs=1e-4)
-    state, _ = wait(step, state, 2)
+    state, ts = wait(step, state, 2)
     assert float(state.units.energy[cc]) == pytest.approx(50 + 0.5625 / 16 * 17, abs=1e-4)
+    energy = ts.observation["feature_screen"][small_sim(CMAG).fmt.screen_index("unit_energy")]
+    assert energy[tuple(pixel(state, COMMAND_CENTER)[::-1])] == 50  # The screen shows it.
     state, ts = act(step, state, F.Train_SCV_quick("now"))
     assert result(ts) == 0
 

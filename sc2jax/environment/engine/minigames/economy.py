@@ -23,7 +23,7 @@ import numpy as np
 from sc2jax.environment.engine.availability import COMBAT_CARD, card_table
 from sc2jax.environment.engine.minigames.base import MiniGame, flat_geometry
 from sc2jax.environment.engine.rules.state import Order, Owner, Units, place
-from sc2jax.environment.engine.rules.units import UnitType
+from sc2jax.environment.engine.rules.units import UnitType, terran_types
 from sc2jax.environment.interface.observation_tables import ScoreCumulative
 
 REGION_1 = (19.9362, 18.998, 45.936, 36.998)
@@ -57,6 +57,7 @@ Stimpack (not modelled). Smart (the right click) is on no card and stays."""
 _UNIT_TYPES = (UnitType.SCV, UnitType.MARINE, UnitType.MINERAL_FIELD, UnitType.VESPENE_GEYSER,
                UnitType.COMMAND_CENTER, UnitType.SUPPLY_DEPOT, UnitType.BARRACKS,
                UnitType.REFINERY)
+"""BuildMarines' unit types: what its cut-down cards can make."""
 
 
 class EconomyGame(MiniGame):
@@ -66,15 +67,17 @@ class EconomyGame(MiniGame):
     Class attributes:
       FIELDS: float32[F, 2] mineral field positions.
       GEYSERS: float32[G, 2] geyser positions.
+      UNIT_TYPES: every type the map can hold.
     """
 
     FIELDS: np.ndarray = np.zeros((0, 2), np.float32)
     GEYSERS: np.ndarray = np.zeros((0, 2), np.float32)
+    UNIT_TYPES: tuple[UnitType, ...] = _UNIT_TYPES
 
     def __init__(self, name, time_limit, num_slots, slot_sizes):
         super().__init__(name=name, time_limit=time_limit, num_slots=num_slots,
                          geometry=flat_geometry(REGION_1), fog=False, camera=CAMERA,
-                         unit_types=_UNIT_TYPES, starting_minerals=STARTING_MINERALS,
+                         unit_types=self.UNIT_TYPES, starting_minerals=STARTING_MINERALS,
                          has_enemies=False, field_slots=len(self.FIELDS), slot_sizes=slot_sizes)
 
     @property
@@ -106,6 +109,10 @@ class EconomyGame(MiniGame):
 class CollectMineralsAndGas(EconomyGame):
     FIELDS = np.concatenate([LEFT_FIELDS, RIGHT_FIELDS])
     GEYSERS = GEYSERS
+    # Its cards are the game's: every Terran type can be made (an Orbital Command's
+    # energy, a flying Barracks).
+    UNIT_TYPES = (UnitType.MINERAL_FIELD, UnitType.VESPENE_GEYSER,
+                  *sorted(terran_types().values()))
 
     def __init__(self):
         # 33 units at the start, at most 56 alive in four of the scripted agent's episodes.

@@ -23,7 +23,7 @@ from __future__ import annotations
 import jax.numpy as jnp
 import numpy as np
 
-from sc2jax.environment.engine.rules.production import trains
+from sc2jax.environment.engine.rules.production import queue_cost, trains
 from sc2jax.environment.engine.rules.state import EnvState, Owner, Units
 from sc2jax.environment.engine.rules.units import UNIT_DATA, Attribute
 from sc2jax.environment.engine.xla.fusion import set_static
@@ -40,12 +40,13 @@ _STRUCTURE = (UNIT_DATA.attributes & Attribute.STRUCTURE) > 0
 
 def values(units: Units):
     """(units, structures, queued) int32: the cost of the player's living units, of its
-    structures, and of the units in its training queues."""
+    structures, and of what its queues hold (an upgrade its price, not its form's)."""
     own = units.alive & (units.owner == Owner.SELF)
     value = jnp.asarray(_VALUE)
     worth = value[units.type]
     structure = jnp.asarray(_STRUCTURE)[units.type]
-    queued = jnp.sum(jnp.where(own[:, None] & (units.queue != 0), value[units.queue], 0))
+    paid = jnp.sum(queue_cost(units.type[:, None], units.queue), axis=-1)
+    queued = jnp.sum(jnp.where(own[:, None] & (units.queue != 0), paid, 0))
     return (jnp.sum(jnp.where(own & ~structure, worth, 0)),
             jnp.sum(jnp.where(own & structure, worth, 0)), queued)
 
