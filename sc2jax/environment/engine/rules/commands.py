@@ -37,12 +37,13 @@ def issue(units: Units, order, queued, point, target_unit=NO_TARGET, unit_type=0
     Args:
       units: the units.
       order: int32 `Order` (MOVE, ATTACK_MOVE, ATTACK_UNIT, PATROL, HOLD, GATHER,
-        RETURN).
+        RETURN, BUILD, CONSTRUCT, LAND).
       queued: int32 0 (now) or 1 (queued).
       point: float32[2] world target point.
       target_unit: int32 target slot for ATTACK_UNIT, GATHER and CONSTRUCT (-1 for
         RETURN: the nearest Command Center), else -1.
-      unit_type: int32 the `UnitType` a BUILD order places, else 0.
+      unit_type: int32 the `UnitType` a BUILD order places or a LAND order lands as,
+        else 0.
 
     Returns:
       (units, ok): ok is False if no selected unit could take the order.

@@ -107,7 +107,8 @@ class Units:
       orders: int32[N, Q] `Order` queue; slot 0 is current.
       order_pos: float32[N, Q, 2] target points.
       order_unit: int32[N, Q] target unit slots, or -1.
-      order_type: int32[N, Q] the `UnitType` a BUILD order places, else 0.
+      order_type: int32[N, Q] the `UnitType` a BUILD order places or a LAND order lands
+        as, else 0.
       patrol_origin: float32[N, 2] where the current patrol leg started.
       target: int32[N] the unit being engaged (acquired or ordered), or -1.
       selected: bool[N].
