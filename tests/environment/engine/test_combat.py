@@ -418,3 +418,15 @@ def test_weapons_hit_only_the_layers_they_target(attacker, hits):
                            [(0, Order.ATTACK_UNIT, 1, (31.0, 28.0))])
         ordered, _ = _AIR_LOOP(ordered, key)
         assert (int(ordered.orders[0, 0]) == Order.ATTACK_UNIT) == (enemy in hits)
+
+
+@pytest.mark.parametrize("depot, passes", [(UnitType.SUPPLY_DEPOT, False),
+                                           (UnitType.SUPPLY_DEPOT_LOWERED, True)],
+                         ids=["raised", "lowered"])
+def test_a_marine_walks_over_a_lowered_depot_and_not_through_a_raised_one(depot, passes):
+    units = units_of([(0, M, SELF, (27.0, 28.0)), (1, depot, SELF, (30.0, 28.0))],
+                     [(0, Order.MOVE, None, (33.0, 28.0))])
+    after, _ = run(units, 60)
+    x = float(after.pos[0, 0])
+    assert (x == pytest.approx(33.0, abs=1e-3)) == passes, x
+    assert passes or x < 30.0  # Held on the depot's near side.

@@ -609,9 +609,10 @@ def _end_arrived(units: Units, arrived) -> Units:
 
 def colliding(data):
     """bool[N]: which of N units (their `UNIT_DATA` rows) collide: ground units with
-    health and structures; items (beacons, shards) have a radius for rendering only, and
-    flying units pass over everything."""
-    return ((data.max_health > 0) | ((data.attributes & Attribute.STRUCTURE) > 0)) & ~data.flying
+    health and structures; items (beacons, shards) have a radius for rendering only,
+    flying units pass over everything, and ground units walk over a lowered depot."""
+    solid = (data.max_health > 0) | ((data.attributes & Attribute.STRUCTURE) > 0)
+    return solid & ~data.flying & ~data.walkable
 
 
 # Collision pushes are summed in fixed point, in units of 2**-PUSH_BITS world units

@@ -118,6 +118,7 @@ class UnitData(NamedTuple):
       attributes: `Attribute` flags.
       flying: the unit is in the air.
       town_hall: a landed Command Center or Orbital Command, where workers return cargo.
+      walkable: a structure ground units walk over (a lowered Supply Depot).
       is_army: counts for `select_army` and `army_count`.
       food: supply used.
       mineral_cost, vespene_cost: cost.
@@ -150,6 +151,7 @@ class UnitData(NamedTuple):
     attributes: np.ndarray
     flying: np.ndarray
     town_hall: np.ndarray
+    walkable: np.ndarray
     is_army: np.ndarray
     food: np.ndarray
     mineral_cost: np.ndarray
@@ -208,7 +210,7 @@ def _other_row(t: UnitType) -> dict:
                 bonus_attribute=_L if bonus else 0, attacks=1 if damage else 0,
                 targets=Targets.GROUND if damage else 0, cooldown=cooldown, range=rng,
                 sight=sight, acquire=acquire, attributes=attributes, flying=False,
-                town_hall=False, is_army=is_army, food=food, mineral_cost=minerals,
+                town_hall=False, walkable=False, is_army=is_army, food=food, mineral_cost=minerals,
                 vespene_cost=vespene,
                 burst=_BURST.get(t, 0.0), contents=_CONTENTS.get(t, 0), build_time=0,
                 supply=0, footprint=_FOOTPRINT.get(t, (0, 0)))
@@ -237,6 +239,7 @@ def _terran_row(t: UnitType, name: str) -> dict:
         acquire=max(weapon["range"], ACQUIRE) if armed else 0.0, attributes=attributes,
         flying=row["flying"], is_army=row["food"] > 0 and t not in WORKERS, food=row["food"],
         town_hall="CommandCenter" in (name, row["tech_alias"]) and not row["flying"],
+        walkable=name == "SupplyDepotLowered",
         mineral_cost=row["minerals"], vespene_cost=row["vespene"], burst=0.0, contents=0,
         build_time=row["build_time"], supply=row["supply"], footprint=tuple(row["footprint"]))
 
@@ -257,7 +260,8 @@ def _build() -> UnitData:
         cooldown=f32("cooldown") * LOOPS_PER_SECOND,
         range=f32("range"), sight=f32("sight"), acquire=f32("acquire"),
         attributes=i32("attributes"), flying=col("flying", bool),
-        town_hall=col("town_hall", bool), is_army=col("is_army", bool),
+        town_hall=col("town_hall", bool), walkable=col("walkable", bool),
+        is_army=col("is_army", bool),
         food=f32("food"), mineral_cost=i32("mineral_cost"), vespene_cost=i32("vespene_cost"),
         burst=f32("burst"), contents=f32("contents"), build_time=f32("build_time"),
         supply=f32("supply"), footprint=i32("footprint"))
