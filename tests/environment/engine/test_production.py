@@ -282,6 +282,7 @@ def test_build_marines_command_cards():
                                   F.Smart_minimap.id}
 
 
+@pytest.mark.slow  # BuildMarines' step compiles in 15-25 s: the fast tier stays under 3 minutes.
 def test_build_marines_scores_each_marine_created():
     state, step = start(BM)
     state = _with_units(state, [(UnitType.SUPPLY_DEPOT, (36.0, 34.0)),
@@ -302,6 +303,7 @@ def test_build_marines_scores_each_marine_created():
     assert np.nonzero(rewards)[0].tolist() == [47, 97]
 
 
+@pytest.mark.slow  # BuildMarines' step compiles in 15-25 s: the fast tier stays under 3 minutes.
 def test_workers_spread_over_the_mineral_line():
     state, step = start(BM, minerals=50)
     state, _ = wait(step, state, 40, BM)
@@ -331,6 +333,7 @@ def test_bad_score_index_names_what_is_allowed():
             Simulator(CMAG, fmt=SMALL, score_index=bad)
 
 
+@pytest.mark.slow  # Two BuildMarines programs, about 30 s: the fast tier stays under 3 minutes.
 @pytest.mark.parametrize("marines, needs", [(10, [32, 33, 33]), (11, [33, 34, 34])])
 def test_leading_slots_play_the_same_game_as_all_slots(marines, needs):
     """BuildMarines runs its game loops on the leading slots in use and one more per
@@ -347,7 +350,7 @@ def test_leading_slots_play_the_same_game_as_all_slots(marines, needs):
                            axis=1), state.next_tag)
     cc = slots(state, UnitType.COMMAND_CENTER)[0]
     units = units.replace(queue=units.queue.at[cc, 0].set(UnitType.SCV),
-                          queue_work=units.queue_work.at[cc].set(270.0))
+                          queue_work=units.queue_work.at[cc, 0].set(270.0))
     every = Simulator(BM, SMALL, use_slot_sizes=False)
     step_every = compiled(every)[1]
     need = jax.jit(small_sim(BM).slots_needed)

@@ -178,6 +178,7 @@ def test_split_loop_trains_from_a_dm_env_environment():
         run_split_loop(actor, agent.learner, state, 0)
 
 
+@pytest.mark.slow  # About 13 s (its own programs): the fast tier stays under 3 minutes.
 def test_a_device_actor_feeds_the_split_loop():
     config = TrainConfig(**{**TINY.to_json(), "off_policy_correction": "vtrace"})
     agent = trainer.build(config)
