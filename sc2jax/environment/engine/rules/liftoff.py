@@ -46,10 +46,6 @@ ARRIVAL = 1e-3
 """How near its site a landing structure must come, world units."""
 
 
-def _own(units: Units):
-    return units.alive & (units.owner == Owner.SELF)
-
-
 def lift(units: Units):
     """`Lift_quick`: the selected complete structures with an empty queue, building no
     add-on, lift off.
@@ -59,7 +55,7 @@ def lift(units: Units):
       CantQueueThatOrder when all of them are busy).
     """
     flying = jnp.asarray(FLYING_FORM)[units.type]
-    able = units.selected & _own(units) & units.complete & (flying > 0)
+    able = commands.commandable(units) & units.complete & (flying > 0)
     kind, addon_done = production.addon_kinds(units)
     idle = jnp.all(units.queue == 0, axis=1) & ((kind == 0) | addon_done)
     lifting = able & idle
@@ -92,7 +88,7 @@ def order_land(units: Units, buildable, point, queued):
     """
     n = units.num_slots
     landed = jnp.asarray(LANDED_FORM)[units.type]
-    flyers = units.selected & _own(units) & (landed > 0)
+    flyers = commands.commandable(units) & (landed > 0)
     sites = production.snap(landed, point)  # [N, 2]: each one's own footprint
     lander = jnp.argmin(jnp.where(flyers, squared_length(sites - units.pos), jnp.inf))
     kind, site = landed[lander], sites[lander]
@@ -116,7 +112,8 @@ def land_arrivals(units: Units, buildable) -> Units:
     n = units.num_slots
     rows = jnp.arange(n)
     site = units.order_pos[:, 0]
-    arrived = (_own(units) & (units.orders[:, 0] == Order.LAND)
+    own = units.alive & (units.owner == Owner.SELF)
+    arrived = (own & (units.orders[:, 0] == Order.LAND)
                & (squared_length(units.pos - site) <= ARRIVAL ** 2))
     lander = jnp.argmax(arrived)
     kind, at = units.order_type[lander, 0], site[lander]
@@ -126,7 +123,7 @@ def land_arrivals(units: Units, buildable) -> Units:
     beside = jnp.all(jnp.abs(units.pos - at - jnp.asarray(production.ADDON_OFFSET)) < 1e-3,
                      axis=-1)
     own_type = jnp.asarray(production.ADDON_OF)[kind, addon_kind]
-    candidates = _own(units) & (addon_kind > 0) & beside & (own_type > 0)
+    candidates = own & (addon_kind > 0) & beside & (own_type > 0)
     addon = jnp.where(lands & candidates.any(), jnp.argmax(candidates), NO_TARGET)
     is_lander = lands & (rows == lander)
     units = units.replace(

@@ -22,7 +22,8 @@ import jax.numpy as jnp
 import numpy as np
 
 from sc2jax.environment.engine import terran_data
-from sc2jax.environment.engine.rules.state import NO_TARGET, Order, Owner, Units
+from sc2jax.environment.engine.rules import commands
+from sc2jax.environment.engine.rules.state import NO_TARGET, Order, Units
 from sc2jax.environment.engine.rules.units import UNIT_DATA, UnitType, terran_types
 from sc2jax.environment.interface.functions import FUNCTIONS
 
@@ -76,8 +77,8 @@ def switch_mode(units: Units, function):
       (units, ok bool: any switched).
     """
     source, target = jnp.asarray(_FROM)[function], jnp.asarray(_TO)[function]
-    switching = (units.selected & units.alive & (units.owner == Owner.SELF)
-                 & units.complete & (units.type == source) & (source > 0))
+    switching = (commands.commandable(units) & units.complete & (units.type == source)
+                 & (source > 0))
     rows = switching[:, None]
     return units.replace(
         type=jnp.where(switching, target, units.type),
