@@ -23,7 +23,7 @@ from sc2jax.environment.engine.availability import (
     available_actions,
 )
 from sc2jax.environment.engine.render import Renderer, pick_unit
-from sc2jax.environment.engine.rules import commands, liftoff, morphs, production
+from sc2jax.environment.engine.rules import commands, liftoff, morphs, production, research
 from sc2jax.environment.engine.rules.geometry import clamp_camera
 from sc2jax.environment.engine.rules.state import NO_TARGET, EnvState, Order, Owner
 from sc2jax.environment.engine.rules.units import UNIT_DATA, UnitType, game_name
@@ -64,6 +64,7 @@ class Kind(enum.IntEnum):
     MORPH = 24
     LIFT = 25
     LAND = 26
+    STIM = 27
 
 
 _BY_NAME = {
@@ -82,16 +83,22 @@ _BY_NAME = {
     "select_idle_worker": Kind.SELECT_IDLE_WORKER, "build_queue": Kind.BUILD_QUEUE,
     "Build_TechLab_quick": Kind.BUILD_ADDON, "Build_Reactor_quick": Kind.BUILD_ADDON,
     **{name: Kind.MORPH for name in morphs.MODES},
-    "Lift_quick": Kind.LIFT, "Land_screen": Kind.LAND,
+    "Lift_quick": Kind.LIFT, "Land_screen": Kind.LAND, "Effect_Stim_quick": Kind.STIM,
+    **{name: Kind.TRAIN for name in research.BUTTON.values()},
 }
 _BY_NAME.update({name: Kind.BUILD if name.startswith("Build_") else Kind.TRAIN
                  for name in MAKE_FUNCTIONS})
 MAKES_TABLE = np.zeros(NUM_FUNCTIONS, np.int32)
-MAKE_ABILITY = np.zeros(len(UnitType), np.int32)
-"""The ability id that builds or trains each unit type (0 where none does)."""
+"""The queue item (or structure) each function makes (0 where none)."""
+MAKE_ABILITY = np.zeros(research.NUM_ITEMS, np.int32)
+"""The ability id that builds or trains each unit type, or researches each research
+(by queue item; 0 where none does)."""
 for _name, _type in MAKE_FUNCTIONS.items():
     MAKES_TABLE[FUNCTIONS[_name].id] = _type
     MAKE_ABILITY[_type] = FUNCTIONS[_name].ability_id
+for _research, _name in research.BUTTON.items():
+    MAKES_TABLE[FUNCTIONS[_name].id] = research.item(_research)
+    MAKE_ABILITY[research.item(_research)] = FUNCTIONS[research.FUNCTION[_research]].ability_id
 for _type in np.flatnonzero(production.ADDON_KIND):  # Each add-on's own (specific) ability.
     MAKE_ABILITY[_type] = terran_data.unit(game_name(UnitType(_type)))["ability_id"]
 
@@ -156,7 +163,8 @@ def apply_action(state: EnvState, action: DenseAction, renderer: Renderer,
     cannot make these functions available.
     """
     function = jnp.clip(action.function, 0, NUM_FUNCTIONS - 1)
-    available = available_actions(state.units, card_table)[function]
+    available = available_actions(state.units, card_table,
+                                  state.researched if economy else None)[function]
     ctx = _Context(state, action, renderer)
     units = state.units
     a = action
@@ -199,7 +207,7 @@ def apply_action(state: EnvState, action: DenseAction, renderer: Renderer,
         return paid(new_units, result)
 
     def train():
-        new_units, new_bank, result = production.enqueue(units, bank, makes)
+        new_units, new_bank, result = production.enqueue(units, bank, makes, state.researched)
         return paid(new_units, result, new_bank)
 
     def build_addon():
@@ -248,6 +256,7 @@ def apply_action(state: EnvState, action: DenseAction, renderer: Renderer,
         lambda: keep_camera(morphs.switch_mode(units, function)),
         lambda: paid(*liftoff.lift(units)),
         lambda: paid(*liftoff.order_land(units, renderer.buildable, ctx.point, a.queued)),
+        lambda: keep_camera(research.stim(units, state.researched)),
     ]
     if not economy:
         branches = branches[:Kind.BUILD]

@@ -10,7 +10,7 @@ from __future__ import annotations
 import jax.numpy as jnp
 import numpy as np
 
-from sc2jax.environment.engine.rules import morphs, production
+from sc2jax.environment.engine.rules import morphs, production, research
 from sc2jax.environment.engine.rules.state import Owner, Units
 from sc2jax.environment.engine.rules.units import UNIT_DATA, UnitType, game_name
 from sc2jax.environment.interface.functions import ALWAYS, FUNCTIONS, NUM_FUNCTIONS
@@ -51,8 +51,14 @@ FLYING_CARD = ("Move_screen", "Move_minimap", "Stop_quick", "Smart_screen", "Sma
                "Land_screen")
 """A flying structure's card (its Patrol, Hold, add-ons and rally are not modelled)."""
 
+_RESEARCH_CARDS = {at: tuple(research.BUTTON[r] for r in research.Research
+                              if research.AT[r] == at) + ("Cancel_Last_quick",)
+                   for at in map(UnitType, sorted(set(research.AT.tolist())))}
+"""The cards of the structures that research: their researches, and Cancel Last."""
+
 COMMAND_CARDS: dict[UnitType, tuple[str, ...]] = {
-    UnitType.MARINE: COMBAT_CARD,
+    UnitType.MARINE: COMBAT_CARD + ("Effect_Stim_quick",),
+    UnitType.MARAUDER: COMBAT_CARD + ("Effect_Stim_quick",),
     UnitType.ZERGLING: COMBAT_CARD,
     UnitType.ROACH: COMBAT_CARD,
     UnitType.BANELING: COMBAT_CARD,
@@ -80,13 +86,15 @@ COMMAND_CARDS: dict[UnitType, tuple[str, ...]] = {
     + PRODUCER_CARD,
     UnitType.STARPORT: ("Train_Medivac_quick", "Train_VikingFighter_quick") + ADDON_CARD
     + PRODUCER_CARD,
+    **_RESEARCH_CARDS,
 }
 """Each unit type's command card, as general function names, with the buttons the
 simulator has (docs/fidelity.md). Some buttons show only when they apply
 (`available_actions`): Return Cargo while carrying, Cancel Last while training, the
-add-ons at a producer without one, and a unit or structure once its requirement is met
+add-ons at a producer without one, a unit or structure once its requirement is met
 (Build Barracks with a complete Supply Depot, Train Marauder at a Barracks with a
-complete Tech Lab)."""
+complete Tech Lab), a research while it is neither done nor queued, and Stim once
+Stimpack is done."""
 
 CONSTRUCTION_CARD = ("Cancel_quick",)
 """The card of an unfinished structure."""
@@ -107,6 +115,8 @@ CARD_TABLE = card_table(COMMAND_CARDS)
 _REQUIRING = {name: t for name, t in MAKE_FUNCTIONS.items() if production.REQUIRED[t]}
 _NEEDING_ADDON = {name: t for name, t in MAKE_FUNCTIONS.items() if production.NEEDS_ADDON[t]}
 _CONSTRUCTION_MASK = card_table({UnitType.NONE: CONSTRUCTION_CARD})[UnitType.NONE]
+_RESEARCH_FUNCTIONS = [FUNCTIONS[name].id for name in ("Effect_Stim_quick",
+                                                        *research.BUTTON.values())]
 _ALWAYS_MASK = np.zeros(NUM_FUNCTIONS, bool)
 _ALWAYS_MASK[[FUNCTIONS[name].id for name in ALWAYS]] = True
 
@@ -127,7 +137,7 @@ def _selected_types(units: Units, own_selected):
     return jnp.any(of_type & (own_selected & units.complete)[:, None], axis=0)
 
 
-def available_actions(units: Units, card_table=CARD_TABLE):
+def available_actions(units: Units, card_table=CARD_TABLE, researched=None):
     """bool[num_functions]: the functions the player may call.
 
     The command cards are united per selected unit type: the rows of the types that have
@@ -140,6 +150,9 @@ def available_actions(units: Units, card_table=CARD_TABLE):
       units: the units.
       card_table: bool[num_unit_types, num_functions] numpy array, the command cards in
         use (maps may restrict them).
+      researched: bool[R] the player's research done (`EnvState.researched`), or None
+        on maps without production, where nothing is researched: the research
+        buttons and Stim are then never available.
     """
     own_selected = units.selected & units.alive & (units.owner == Owner.SELF)
     selected_types = _selected_types(units, own_selected)
@@ -180,6 +193,13 @@ def available_actions(units: Units, card_table=CARD_TABLE):
             units.type]
         conditions[name] = conditions.get(name, True) & jnp.any(
             makers & production.equipped(units, unit_type))
+    if researched is None:
+        conditions.update({FUNCTIONS[i].name: False for i in _RESEARCH_FUNCTIONS})
+    else:
+        pending = production.pending(units, researched)
+        conditions["Effect_Stim_quick"] = research.done(researched, research.Research.STIMPACK)
+        for r, name in research.BUTTON.items():
+            conditions[name] = ~pending[r]
     for name, condition in conditions.items():
         mask = mask & (~only(name) | condition)
     return mask

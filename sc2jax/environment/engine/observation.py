@@ -13,7 +13,7 @@ from sc2jax.environment.engine.availability import (
     idle_worker_count,
 )
 from sc2jax.environment.engine.render import Renderer, player_relative
-from sc2jax.environment.engine.rules import liftoff, production
+from sc2jax.environment.engine.rules import liftoff, production, research
 from sc2jax.environment.engine.rules.geometry import squared_length
 from sc2jax.environment.engine.rules.harvest import nearest_depot
 from sc2jax.environment.engine.rules.state import EnvState, Order, Owner, Units
@@ -74,26 +74,28 @@ def production_panel(units: Units, length: int):
     the single selected unit, if it is training (the game's production panel).
 
     A queued unit's vector is its type at full health, with its build progress (of the
-    one in training, or the two with a Reactor); `production_queue` rows are [Train
-    ability id, progress %]. A Reactor's queue holds 8, others 5.
+    one in training, or the two with a Reactor); `production_queue` rows are [Train or
+    Research ability id, progress %]. A research has a row, and no unit vector. A
+    Reactor's queue holds 8, others 5.
     """
     selected = units.selected & units.alive
     slot = jnp.argmax(selected)
     shown = (jnp.sum(selected) == 1) & units.complete[slot]
     queue = units.queue[slot]
     in_queue = shown & (queue != 0)
-    time = jnp.asarray(UNIT_DATA.build_time)[queue]
+    time = jnp.asarray(production.ITEM_TIME)[queue]
     percent = jnp.floor(units.queue_work[slot] / jnp.maximum(time, 1.0) * 100).astype(jnp.int32)
+    unit = jnp.where(queue < research.FIRST, queue, 0)
     vectors = jnp.stack([
-        jnp.asarray(UNIT_DATA.sc2_id)[queue], jnp.full_like(queue, 1),
-        jnp.asarray(UNIT_DATA.max_health)[queue].astype(jnp.int32),
-        jnp.asarray(UNIT_DATA.max_shields)[queue].astype(jnp.int32),
+        jnp.asarray(UNIT_DATA.sc2_id)[unit], jnp.full_like(queue, 1),
+        jnp.asarray(UNIT_DATA.max_health)[unit].astype(jnp.int32),
+        jnp.asarray(UNIT_DATA.max_shields)[unit].astype(jnp.int32),
         jnp.zeros_like(queue), jnp.zeros_like(queue), percent], axis=-1)
     ability = jnp.asarray(MAKE_ABILITY)[queue]
     rows = jnp.stack([ability, percent], axis=-1)
-    pad = lambda x: jnp.zeros((length, x.shape[1]), jnp.int32).at[:x.shape[0]].set(  # noqa: E731
-        jnp.where(in_queue[:, None], x, 0)[:length])
-    return pad(vectors), pad(rows)
+    pad = lambda x, shown: jnp.zeros((length, x.shape[1]), jnp.int32).at[:x.shape[0]].set(  # noqa: E731
+        jnp.where(shown[:, None], x, 0)[:length])
+    return pad(vectors, in_queue & (unit > 0)), pad(rows, in_queue)
 
 
 def _player(state: EnvState):
@@ -190,7 +192,7 @@ def api_units(state: EnvState, renderer: Renderer) -> dict:
                                            orders[:, 0]))
     order_abilities = jnp.concatenate([orders, jnp.asarray(MAKE_ABILITY)[units.queue]], axis=1)
     training = (units.orders[:, 0] == Order.NONE) & (units.queue[:, 0] != 0)
-    train_time = jnp.asarray(d.build_time)[units.queue[:, 0]]
+    train_time = jnp.asarray(production.ITEM_TIME)[units.queue[:, 0]]
     progress_0 = jnp.where(building_addon, build_fraction(units)[addon], jnp.where(
         training, units.queue_work[:, 0] / jnp.maximum(train_time, 1.0), 0.0))
     assigned, ideal = harvesters(units)
@@ -200,7 +202,7 @@ def api_units(state: EnvState, renderer: Renderer) -> dict:
         "alliance": player_relative(units.owner),
         "owner": units.owner,
         "tag": units.tag,
-        "health": units.health, "health_max": jnp.asarray(d.max_health)[t],
+        "health": units.health, "health_max": research.max_health(units, state.researched),
         "shield": units.shields, "shield_max": jnp.asarray(d.max_shields)[t],
         "energy": units.energy, "energy_max": jnp.asarray(d.max_energy)[t],
         "build_progress": build_fraction(units),
@@ -226,13 +228,14 @@ def api_units(state: EnvState, renderer: Renderer) -> dict:
 
 
 def observe(state: EnvState, renderer: Renderer, card_table=CARD_TABLE,
-            previous: dict | None = None) -> dict:
+            previous: dict | None = None, economy: bool = False) -> dict:
     """The padded observation dict of one environment.
 
     Args:
       previous: None, or an observation this renderer made before (of any state): its
         feature layers are written into (`Renderer._draw`), so a loop that carries the
         observation rewrites only the layers that can change.
+      economy: (static) the map has production, and so research (`apply_action`).
     """
     fmt = renderer.fmt
     units = state.units
@@ -269,10 +272,12 @@ def observe(state: EnvState, renderer: Renderer, card_table=CARD_TABLE,
         "last_actions": last_actions,
         "action_result": action_result,
         "alerts": jnp.zeros((specs.MAX_ALERTS,), jnp.int32),
-        "upgrades": jnp.zeros((specs.MAX_UPGRADES,), jnp.int32),
+        "upgrades": _pad_rows(jnp.asarray(research.UPGRADE_ID), state.researched,
+                              specs.MAX_UPGRADES),
         "home_race_requested": jnp.array([tables.TERRAN], jnp.int32),
         "away_race_requested": jnp.zeros((1,), jnp.int32),
-        "available_actions_mask": available_actions(units, card_table),
+        "available_actions_mask": available_actions(
+            units, card_table, state.researched if economy else None),
     }
     if fmt.use_feature_units or fmt.use_raw_units:
         api = api_units(state, renderer)

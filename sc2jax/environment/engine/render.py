@@ -15,6 +15,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
+from sc2jax.environment.engine.rules import research
 from sc2jax.environment.engine.rules.geometry import MapGeometry, cell_lookup, squared_length
 from sc2jax.environment.engine.rules.state import EnvState, Owner, Units, leading_slots
 from sc2jax.environment.engine.rules.units import UNIT_DATA, Attribute, UnitType
@@ -388,7 +389,7 @@ class Renderer:
         # keeps the top unit's word, and 0 where no unit is.
         word_bits = 31 - rank_bound(n).bit_length()
         packing = pack_fields(unit_names, word_bits)
-        keys = self._unit_keys(units, packing, word_bits)
+        keys = self._unit_keys(units, state.researched, packing, word_bits)
         painted = keys if paints_every_word(n, box, size) else keys[:1]
         planes: dict[str, jnp.ndarray] = {}
         if unit_names or wants_density:
@@ -455,7 +456,7 @@ class Renderer:
             return jnp.zeros((len(names), h, w), jnp.int32)
         return cut(0, len(names))
 
-    def _unit_keys(self, units: Units, packing: dict, word_bits: int) -> list:
+    def _unit_keys(self, units: Units, researched, packing: dict, word_bits: int) -> list:
         """Each unit's paint keys: its `draw_rank` + 1 above each of its packed words.
 
         Layers are bit-packed into a few words per unit (`pack_fields`), so `paint`
@@ -466,7 +467,7 @@ class Renderer:
         Returns:
           int32[N] keys, one per word.
         """
-        per_unit = self._unit_values(units)
+        per_unit = self._unit_values(units, researched)
         rank = jnp.left_shift(draw_rank(units) + 1, word_bits)
         keys = [rank] * (max((w for w, _, _ in packing.values()), default=-1) + 1)
         for name, (word, shift, bits) in packing.items():
@@ -508,8 +509,10 @@ class Renderer:
         return (in_y[:, None] & in_x[None, :]).astype(jnp.int32)
 
     @staticmethod
-    def _unit_values(units: Units) -> dict[str, Callable[[], jnp.ndarray]]:
-        """Lazily computed int32[N] per-unit values of the per-unit screen layers."""
+    def _unit_values(units: Units, researched) -> dict[str, Callable[[], jnp.ndarray]]:
+        """Lazily computed int32[N] per-unit values of the per-unit screen layers (the
+        health ratio of the player's most health, with its research: bool[R]
+        `researched`)."""
         d = UNIT_DATA
         t = units.type
         return {
@@ -518,7 +521,8 @@ class Renderer:
             "unit_type": lambda: jnp.asarray(d.sc2_id)[t],
             "selected": lambda: units.selected.astype(jnp.int32),
             "unit_hit_points": lambda: jnp.ceil(units.health).astype(jnp.int32),
-            "unit_hit_points_ratio": lambda: ratio_255(units.health, jnp.asarray(d.max_health)[t]),
+            "unit_hit_points_ratio": lambda: ratio_255(units.health,
+                                                       research.max_health(units, researched)),
             "unit_energy": lambda: units.energy.astype(jnp.int32),
             "unit_energy_ratio": lambda: ratio_255(units.energy, jnp.asarray(d.max_energy)[t]),
             "unit_shields": lambda: units.shields.astype(jnp.int32),

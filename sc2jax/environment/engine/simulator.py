@@ -25,7 +25,7 @@ from sc2jax.environment.engine.availability import CARD_TABLE
 from sc2jax.environment.engine.minigames import get_map
 from sc2jax.environment.engine.observation import observe
 from sc2jax.environment.engine.render import Renderer, sight_grid
-from sc2jax.environment.engine.rules import liftoff, production, score
+from sc2jax.environment.engine.rules import liftoff, production, research, score
 from sc2jax.environment.engine.rules.dynamics import facing_of, game_loop, turned
 from sc2jax.environment.engine.rules.state import (
     NUM_SCORE_CUMULATIVE,
@@ -218,14 +218,16 @@ class Simulator:
             k: previous[k] for k in ("feature_screen", "feature_minimap")}
         sizes = self.game.slot_sizes if self.use_slot_sizes else None
         if sizes is None:
-            return observe(state, self.renderer, self.card_table, layers)
+            return observe(state, self.renderer, self.card_table, layers,
+                           self.game.has_production)
         return smallest_fit(slots_in_use(state.units.alive), sizes, self._observe_leading,
                             (state, layers))
 
     def _observe_leading(self, size: int, operand) -> dict:
         state, previous = operand
         units = leading_slots(state.units, size)
-        return observe(state.replace(units=units), self.renderer, self.card_table, previous)
+        return observe(state.replace(units=units), self.renderer, self.card_table, previous,
+                       self.game.has_production)
 
     # Internals.
 
@@ -270,6 +272,7 @@ class Simulator:
             score_cumulative=jnp.zeros(NUM_SCORE_CUMULATIVE, jnp.int32),
             score_by_vital=jnp.zeros((3, 3), jnp.float32),
             minerals=jnp.int32(self.game.starting_minerals), vespene=jnp.int32(0),
+            researched=jnp.zeros(len(research.Research), bool),
             collection_rate=jnp.zeros(2, jnp.float32),
             explored=jnp.zeros((h, w), bool), next_tag=jnp.int32(next_tag),
             last_action=jnp.int32(-1), action_result=jnp.int32(0),
@@ -294,13 +297,19 @@ class Simulator:
                                       team_split=game.team_split,
                                       jitter_slots=game.num_slots,
                                       sized=game.slot_sizes is not None, face=False,
-                                      air=game.has_air)
+                                      air=game.has_air,
+                                      researched=(state.researched if game.has_production
+                                                  else None))
             bank = jnp.stack([state.minerals + events.minerals.astype(jnp.int32),
                               state.vespene + events.vespene.astype(jnp.int32)])
             next_tag, spent = state.next_tag, jnp.zeros(2, jnp.int32)
+            researched = state.researched
             if game.has_production:
                 economy = production.production_loop(units, bank, next_tag, buildable)
-                units = liftoff.land_arrivals(economy.units, buildable)
+                researched = researched | economy.researched
+                units = research.shield_health(liftoff.land_arrivals(economy.units, buildable),
+                                               researched, economy.researched,
+                                               economy.created)
                 bank, next_tag = economy.bank, economy.next_tag
                 spent = economy.spent
                 events = events._replace(created=economy.created)
@@ -309,7 +318,7 @@ class Simulator:
                                        3: vital[3] + events.damage_taken}).reshape(3, 3)
             new = state.replace(units=units, key=key, game_loop=state.game_loop + 1,
                                 score_by_vital=vital, minerals=bank[0], vespene=bank[1],
-                                next_tag=next_tag)
+                                researched=researched, next_tag=next_tag)
             new = score.after_loop(new, state.units, events.died, events.minerals,
                                    events.vespene, spent)
             new = game.on_loop(new, events)

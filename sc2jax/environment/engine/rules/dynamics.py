@@ -22,7 +22,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from sc2jax.environment.engine.rules import harvest
+from sc2jax.environment.engine.rules import harvest, research
 from sc2jax.environment.engine.rules.geometry import distances, squared_length
 from sc2jax.environment.engine.rules.state import (
     NO_TARGET,
@@ -303,7 +303,7 @@ def game_loop(units: Units, key, playable, bursts: bool = False, workers: bool =
               team_split: int | None = None,
               jitter_slots: int | None = None,
               sized: bool = False, face: bool = True,
-              air: bool = False) -> tuple[Units, LoopEvents]:
+              air: bool = False, researched=None) -> tuple[Units, LoopEvents]:
     """Advances all units by one game loop.
 
     Args:
@@ -333,12 +333,16 @@ def game_loop(units: Units, key, playable, bursts: bool = False, workers: bool =
       air: (static) whether the map has flying units: a weapon then hits only what its
         `targets` allow (a Viking in the air only air units, a Siege Tank only ground
         ones), where maps without them skip the check.
+      researched: None, or bool[R] the player's research (`research`): its upgrades,
+        stims and slows then apply, where maps without research skip them.
 
     Returns:
       The new units and the loop's events.
     """
     n = units.num_slots
     data = _data(units.type)
+    if researched is not None:
+        data = research.unit_rows(data, units, researched)
     alive = units.alive
     pos = units.pos
 
@@ -491,6 +495,9 @@ def game_loop(units: Units, key, playable, bursts: bool = False, workers: bool =
         vespene=jnp.sum(jnp.where(own, vespene, 0.0)),
         created=jnp.zeros(n, bool), heading=heading)
 
+    if researched is not None:
+        stim, slow = research.timers(units, researched, single, safe_target)
+        units = units.replace(stim=jnp.where(alive, stim, 0.0), slow=jnp.where(alive, slow, 0.0))
     units = units.replace(
         pos=new_pos, facing=facing, cooldown=jnp.where(alive, cooldown, 0.0),
         health=jnp.where(alive, health, 0.0), alive=alive,

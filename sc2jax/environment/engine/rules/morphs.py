@@ -22,7 +22,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from sc2jax.environment.engine import terran_data
-from sc2jax.environment.engine.rules import commands
+from sc2jax.environment.engine.rules import commands, research
 from sc2jax.environment.engine.rules.state import NO_TARGET, Order, Units
 from sc2jax.environment.engine.rules.units import UNIT_DATA, UnitType, terran_types
 from sc2jax.environment.interface.functions import FUNCTIONS
@@ -55,8 +55,9 @@ MODES, UPGRADES = _tables()
 """MODES: function name -> (from, to, morph loops) of the switches. UPGRADES: function
 name -> (from, to) of the morphs a structure trains."""
 
-UPGRADE = np.zeros((len(UnitType), len(UnitType)), bool)
-"""bool[T, T], [from, to]: a structure of type `from` trains the upgrade to `to`."""
+UPGRADE = np.zeros((len(UnitType), research.NUM_ITEMS), bool)
+"""bool[T, I], [from, item]: a structure of type `from` trains the upgrade to the type
+`item` (a queue item, `research.FIRST` of them unit types)."""
 for _source, _target in UPGRADES.values():
     UPGRADE[_source, _target] = True
 

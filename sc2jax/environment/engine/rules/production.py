@@ -15,6 +15,9 @@ game, with the costs, times, producers and requirements of the Terran data table
   resource gathers from it. Cancelling a queued unit refunds its cost.
 - **Upgrades** (`morphs`): a Command Center trains its Orbital Command as a unit, alone
   in its queue, and becomes it when done.
+- **Research** (`research`): a Barracks Tech Lab or an Engineering Bay queues its
+  researches as items (`research.item`), each once per player, and sets the player's
+  upgrade when one is done.
 - **Add-ons.** `Build_TechLab` and `Build_Reactor` at an idle Barracks, Factory or
   Starport without one place its add-on (2 x 2) unfinished at `ADDON_OFFSET` from it,
   paid for then; it is built in its build time while the producer, busy, trains
@@ -48,7 +51,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from sc2jax.environment.engine import terran_data
-from sc2jax.environment.engine.rules import commands, morphs
+from sc2jax.environment.engine.rules import commands, morphs, research
 from sc2jax.environment.engine.rules.dynamics import pop_order
 from sc2jax.environment.engine.rules.geometry import squared_length
 from sc2jax.environment.engine.rules.state import (
@@ -138,6 +141,27 @@ BUILDS = tuple(UnitType(t) for t in np.flatnonzero(MAKES[UnitType.SCV]))
 """The structures an SCV builds."""
 
 
+def _item_tables():
+    r = len(research.Research)
+    unit_cost = np.stack([UNIT_DATA.mineral_cost, UNIT_DATA.vespene_cost], axis=-1)
+    queues = np.zeros((len(UnitType), research.NUM_ITEMS), bool)
+    queues[:, :research.FIRST] = MAKES & TRAINERS[:, None]
+    queues |= morphs.UPGRADE
+    queues[research.AT, research.FIRST + np.arange(r)] = True
+    pad = lambda table: np.pad(table, (0, r))  # noqa: E731
+    return (np.concatenate([unit_cost, research.COST]).astype(np.int32),
+            np.concatenate([UNIT_DATA.build_time, research.TIME]).astype(np.float32),
+            pad(UNIT_DATA.food).astype(np.float32), queues, pad(REQUIRED), pad(NEEDS_ADDON))
+
+
+ITEM_COST, ITEM_TIME, ITEM_FOOD, QUEUES, ITEM_REQUIRED, ITEM_NEEDS_ADDON = _item_tables()
+"""Per queue item (`research.NUM_ITEMS`: the unit types, then the researches):
+ITEM_COST int32[I, 2] minerals and vespene, ITEM_TIME float32[I] loops, ITEM_FOOD
+float32[I] supply, ITEM_REQUIRED and ITEM_NEEDS_ADDON int32[I] (`REQUIRED`,
+`NEEDS_ADDON`; none for research). QUEUES: bool[T, I], [holder, item]: a structure
+queues the item (trains the unit, trains the upgrade, or researches)."""
+
+
 def _column(name, types):
     return jnp.asarray(getattr(UNIT_DATA, name))[types]
 
@@ -157,7 +181,7 @@ def food_used(units: Units):
     own = _own(units)
     living = jnp.sum(jnp.where(own, _column("food", units.type), 0.0))
     training = jnp.sum(jnp.where(own[:, None] & (units.queue_work > 0),
-                                 _column("food", units.queue), 0.0))
+                                 jnp.asarray(ITEM_FOOD)[units.queue], 0.0))
     return living + training
 
 
@@ -168,8 +192,8 @@ def has_structure(units: Units, unit_type):
 
 
 def tech_ok(units: Units, unit_type):
-    """bool: the tech requirement of making `unit_type` (int32) is met."""
-    needed = jnp.asarray(REQUIRED)[unit_type]
+    """bool: the tech requirement of making `unit_type` (int32, a queue item) is met."""
+    needed = jnp.asarray(ITEM_REQUIRED)[unit_type]
     return (needed == 0) | has_structure(units, needed)
 
 
@@ -223,17 +247,25 @@ def upgrading(units: Units):
 
 
 def queue_cost(holder, item):
-    """int32[..., 2]: what queueing `item` (int32[...]) at a `holder` (int32[...]) costs:
-    the unit's cost, or for an upgrade the new form's less the old one's (the table's
-    costs of morphed forms include their first form's)."""
+    """int32[..., 2]: what queueing `item` (int32[...], a queue item) at a `holder`
+    (int32[...]) costs: the unit's or research's cost, or for an upgrade the new form's
+    less the old one's (the table's costs of morphed forms include their first form's)."""
     upgrade = jnp.asarray(morphs.UPGRADE)[holder, item]
-    return cost(item) - jnp.where(upgrade[..., None], cost(holder), 0)
+    return jnp.asarray(ITEM_COST)[item] - jnp.where(upgrade[..., None], cost(holder), 0)
+
+
+def pending(units: Units, researched):
+    """bool[R]: the research done (bool[R] `researched`) or in one of the player's
+    queues; neither can be queued again."""
+    items = research.FIRST + jnp.arange(len(research.Research), dtype=jnp.int32)
+    queued = _own(units)[:, None, None] & (units.queue[..., None] == items)
+    return jnp.asarray(researched) | jnp.any(queued, axis=(0, 1))
 
 
 def equipped(units: Units, unit_type):
-    """bool[N]: the slots whose add-on lets them make `unit_type` (int32): a complete one of
-    the kind it `NEEDS_ADDON`, or any slot where it needs none."""
-    needed = jnp.asarray(NEEDS_ADDON)[unit_type]
+    """bool[N]: the slots whose add-on lets them make `unit_type` (int32, a queue item): a
+    complete one of the kind it `NEEDS_ADDON`, or any slot where it needs none."""
+    needed = jnp.asarray(ITEM_NEEDS_ADDON)[unit_type]
     kind, complete = addon_kinds(units)
     return (needed == 0) | (complete & (kind == needed))
 
@@ -329,6 +361,7 @@ class Economy(NamedTuple):
       next_tag: int32 the next unit tag.
       spent: int32[2] minerals and vespene spent this loop on structures.
       created: bool[N] slots where a unit was trained or a structure placed this loop.
+      researched: bool[R] the research finished this loop.
     """
 
     units: Units
@@ -336,18 +369,21 @@ class Economy(NamedTuple):
     next_tag: jax.Array
     spent: jax.Array
     created: jax.Array
+    researched: jax.Array
 
 
-def enqueue(units: Units, bank, unit_type):
-    """`Train_*` and upgrades (`morphs.UPGRADES`): queues one unit of `unit_type` at the
-    selected producer of it with the shortest queue, paying its cost. A unit that needs
-    an add-on (`NEEDS_ADDON`) is queued only at a producer with it complete; an upgrade
-    only in an empty queue, and nothing behind it (CantQueueThatOrder).
+def enqueue(units: Units, bank, unit_type, researched):
+    """`Train_*`, upgrades (`morphs.UPGRADES`) and `Research_*`: queues one `unit_type`
+    (a queue item) at the selected structure that queues it with the shortest queue,
+    paying its cost. A unit that needs an add-on (`NEEDS_ADDON`) is queued only at a
+    producer with it complete; an upgrade only in an empty queue, and nothing behind it
+    (CantQueueThatOrder); a research only while not `pending` (Error).
 
     Args:
       units: the units.
       bank: int32[2] the player's minerals and vespene.
-      unit_type: int32 the unit.
+      unit_type: int32 the queue item.
+      researched: bool[R] the player's research done.
 
     Returns:
       (units, bank, result int32 `ActionResult`).
@@ -356,18 +392,21 @@ def enqueue(units: Units, bank, unit_type):
     length = jnp.sum(units.queue != 0, axis=1)
     upgrade = jnp.asarray(morphs.UPGRADE)[units.type, unit_type]
     maker = (units.selected & _own(units) & units.complete
-             & (jnp.asarray(MAKES)[units.type, unit_type] | upgrade))
+             & jnp.asarray(QUEUES)[units.type, unit_type])
+    last = len(research.Research) - 1
+    taken = (unit_type >= research.FIRST) & pending(units, researched)[
+        jnp.clip(unit_type - research.FIRST, 0, last)]
     producer = maker & equipped(units, unit_type)
     free = jnp.where(upgrade, length == 0, (length < queue_room(units)) & ~upgrading(units))
     room = producer & free
     slot = jnp.argmin(jnp.where(room, length, BUILD_QUEUE + 1))
     price = queue_cost(units.type[slot], unit_type)
-    food = _column("food", unit_type)
+    food = jnp.asarray(ITEM_FOOD)[unit_type]
     payable = affordable(bank, price)
     full = jnp.where((producer & (upgrade | upgrading(units))).any(),
                      int(ActionResult.CantQueueThatOrder), int(ActionResult.QueueIsFull))
     result = jnp.where(
-        ~maker.any(), int(ActionResult.Error),
+        ~maker.any() | taken, int(ActionResult.Error),
         jnp.where(~producer.any() | ~tech_ok(units, unit_type),
                   int(ActionResult.TechRequirementsNotMet),
                   jnp.where(~room.any(), full,
@@ -552,7 +591,7 @@ def cancel_construction(units: Units, bank, next_tag):
 
 def production_loop(units: Units, bank, next_tag, buildable) -> Economy:
     """One game loop of production, after the loop's movement: structures placed by
-    arriving SCVs, construction, training, and energy.
+    arriving SCVs, construction, training and research, and energy.
 
     Args:
       units: the units.
@@ -562,8 +601,8 @@ def production_loop(units: Units, bank, next_tag, buildable) -> Economy:
     """
     units, bank, next_tag, spent, placed = _place_arrivals(units, bank, next_tag, buildable)
     units = _construct(units)
-    units, next_tag, trained = _train(units, next_tag)
-    return Economy(_regenerate(units), bank, next_tag, spent, placed | trained)
+    units, next_tag, trained, finished = _train(units, next_tag)
+    return Economy(_regenerate(units), bank, next_tag, spent, placed | trained, finished)
 
 
 def _regenerate(units: Units) -> Units:
@@ -652,17 +691,18 @@ def _construct(units: Units) -> Units:
 def _train(units: Units, next_tag):
     """Queue heads (the first unit, the first two with a Reactor) train while the
     supply allows and no add-on is being built; finished units appear beside their
-    producer and follow its rally.
+    producer and follow its rally, and finished research leaves its queue.
 
     Returns:
-      (units, next_tag, trained bool[N] the new units' slots).
+      (units, next_tag, trained bool[N] the new units' slots, finished bool[R] the
+      research finished).
     """
     n = units.num_slots
     kind, addon_done = addon_kinds(units)
     ready = _own(units) & units.complete & ((kind == 0) | addon_done)
     heads = jnp.arange(BUILD_QUEUE) < _lanes(units)[:, None]
     producing = ready[:, None] & heads & (units.queue != 0)  # [N, B]
-    food = _column("food", units.queue)
+    food = jnp.asarray(ITEM_FOOD)[units.queue]
     # Heads not yet started take the free supply in slot order.
     started = producing & (units.queue_work > 0)
     waiting = producing & ~started
@@ -670,21 +710,28 @@ def _train(units: Units, next_tag):
     claimed = jnp.cumsum(jnp.where(waiting, food, 0.0).reshape(-1)).reshape(waiting.shape)
     active = started | (waiting & (claimed <= free))
     work = jnp.where(active, units.queue_work + 1.0, units.queue_work)
-    done = active & (work >= _column("build_time", units.queue))
+    done = active & (work >= jnp.asarray(ITEM_TIME)[units.queue])
     # A finished upgrade (alone in its queue) turns its structure into the new form.
     upgraded = done & jnp.asarray(morphs.UPGRADE)[units.type[:, None], units.queue]
     units = morphs.upgrade_done(units, upgraded[:, 0])
     units = units.replace(queue=jnp.where(upgraded, 0, units.queue))
-    work, done = jnp.where(upgraded, 0.0, work), done & ~upgraded
+    researching = done & (units.queue >= research.FIRST)
+    items = research.FIRST + jnp.arange(len(research.Research), dtype=jnp.int32)
+    finished = jnp.any(researching[..., None] & (units.queue[..., None] == items), axis=(0, 1))
+    work, done = jnp.where(upgraded, 0.0, work), done & ~upgraded & ~researching
     # Units finish rarely: the spawning is computed only in loops where one does.
-    return lazy_where(done.any(), lambda args: _spawn(*args), (units, next_tag, done, work),
-                      (units.replace(queue_work=work), next_tag, jnp.zeros(n, bool)))
+    units, next_tag, trained = lazy_where(
+        done.any() | researching.any(), lambda args: _spawn(*args),
+        (units, next_tag, done, researching, work),
+        (units.replace(queue_work=work), next_tag, jnp.zeros(n, bool)))
+    return units, next_tag, trained, finished
 
 
-def _spawn(units: Units, next_tag, done, work):
+def _spawn(units: Units, next_tag, done, researched, work):
     """`_train`'s finished units (bool[N, B] `done`, by producer and queue place: the
-    first two at most) appear beside their producers; `work` (float32[N, B]) is the
-    queue work this loop.
+    first two at most) appear beside their producers, and its finished research (bool[N,
+    B] `researched`) leaves the queues; `work` (float32[N, B]) is the queue work this
+    loop.
 
     Returns:
       (units, next_tag, trained bool[N] the new units' slots).
@@ -732,8 +779,9 @@ def _spawn(units: Units, next_tag, done, work):
         order_unit=first_order(new.order_unit,
                                jnp.where(to_resource, units.rally_unit[producer], NO_TARGET)),
         patrol_origin=jnp.where(filled[:, None], spawn_pos, new.patrol_origin))
-    # The trained units leave their queues; finished ones without a slot wait a loop.
-    left = jnp.pad(spawns.reshape(n, 2), ((0, 0), (0, BUILD_QUEUE - 2)))
+    # The trained units and research leave their queues; finished units without a
+    # slot wait a loop.
+    left = jnp.pad(spawns.reshape(n, 2), ((0, 0), (0, BUILD_QUEUE - 2))) | researched
     work = jnp.where(done & ~left, work - 1.0, work)
     new = new.replace(queue=_compact(units.queue, ~left), queue_work=_compact(work, ~left))
     return new, next_tag + jnp.sum(spawns, dtype=jnp.int32), filled

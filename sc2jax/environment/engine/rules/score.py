@@ -14,8 +14,8 @@ the map's curriculum score (`EnvState.score`); the rest follow the game's defini
   complete producers (structures that train) with an empty queue.
 
 The **Blizzard score** is the paper's (§3): the resources the player has, plus the value of
-its units and structures alive or in progress (units queued for training included), plus
-upgrades researched (none on these maps).
+its units and structures alive or in progress (units and research queued included), plus
+the cost of the research done (`research`).
 """
 
 from __future__ import annotations
@@ -23,6 +23,7 @@ from __future__ import annotations
 import jax.numpy as jnp
 import numpy as np
 
+from sc2jax.environment.engine.rules import research
 from sc2jax.environment.engine.rules.production import queue_cost, trains
 from sc2jax.environment.engine.rules.state import EnvState, Owner, Units
 from sc2jax.environment.engine.rules.units import UNIT_DATA, Attribute
@@ -52,10 +53,11 @@ def values(units: Units):
 
 
 def blizzard_score(state: EnvState):
-    """int32: resources plus the value of units and structures alive or in progress."""
+    """int32: resources plus the value of units and structures alive or in progress, and
+    of the research queued and done."""
     unit_value, structure_value, queued = values(state.units)
-    return (state.minerals + state.vespene + unit_value + structure_value
-            + queued).astype(jnp.int32)
+    return (state.minerals + state.vespene + unit_value + structure_value + queued
+            + research.value(state.researched)).astype(jnp.int32)
 
 
 def after_loop(state: EnvState, old_units: Units, died, minerals, vespene, spent):

@@ -129,6 +129,8 @@ class Units:
       rallied: bool[N] a rally is set.
       addon: int32[N] a producer's add-on (Tech Lab or Reactor) slot, or -1; valid
         while that slot holds a living add-on beside it (`production.addon_kinds`).
+      stim: float32[N] loops a Stimpack lasts (`research`), else 0.
+      slow: float32[N] loops a Concussive Shells slow lasts, else 0.
     """
 
     alive: jax.Array
@@ -161,6 +163,8 @@ class Units:
     rally_unit: jax.Array
     rallied: jax.Array
     addon: jax.Array
+    stim: jax.Array
+    slow: jax.Array
 
     @property
     def num_slots(self) -> int:
@@ -193,7 +197,7 @@ class Units:
             home=jnp.full((n,), NO_TARGET, jnp.int32), gas=jnp.zeros(n, bool), progress=f(n),
             queue=i(n, b), queue_work=f(n, b), rally=f(n, 2),
             rally_unit=jnp.full((n,), NO_TARGET, jnp.int32), rallied=jnp.zeros(n, bool),
-            addon=jnp.full((n,), NO_TARGET, jnp.int32))
+            addon=jnp.full((n,), NO_TARGET, jnp.int32), stim=f(n), slow=f(n))
 
 
 @struct.dataclass
@@ -208,6 +212,7 @@ class EnvState:
       score_cumulative: int32[13] the rest of `score_cumulative` (index 0 mirrors `score`).
       score_by_vital: float32[3, 3] `score_by_vital` (damage dealt, taken, healed).
       minerals, vespene: int32 scalars.
+      researched: bool[R] the player's research done (`research.Research`).
       collection_rate: float32[2] minerals and vespene collected per real minute at
         Faster speed, a moving average (`score_cumulative`'s collection rates).
       explored: bool[map_h, map_w] cells the player has ever seen, row 0 at the top (as
@@ -229,6 +234,7 @@ class EnvState:
     score_by_vital: jax.Array
     minerals: jax.Array
     vespene: jax.Array
+    researched: jax.Array
     collection_rate: jax.Array
     explored: jax.Array
     next_tag: jax.Array
@@ -254,7 +260,7 @@ def _new_units(units: Units, k: int, unit_type, owner, positions, tags, selected
         groups=0, cargo=0.0, work=0.0, contents=jnp.asarray(data.contents)[types],
         home=NO_TARGET, order_type=0, gas=False,
         progress=jnp.asarray(data.build_time)[types], queue=0, queue_work=0.0,
-        rally_unit=NO_TARGET, rallied=False, addon=NO_TARGET)
+        rally_unit=NO_TARGET, rallied=False, addon=NO_TARGET, stim=0.0, slow=0.0)
     fields = {name: getattr(units, name) for name in values}
     return {name: jnp.broadcast_to(jnp.asarray(value, fields[name].dtype),
                                    (k,) + fields[name].shape[1:])
