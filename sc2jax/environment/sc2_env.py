@@ -236,7 +236,7 @@ def make(map_name: str, screen_size: specs.Size = 64, minimap_size: specs.Size =
          ensure_available_actions: bool = True, game_steps_per_episode: int = 0,
          allow_cheating_layers: bool = False, backend: str = "simulator",
          sc2path: str | None = None, bot: Any = None,
-         num_devices: int = 1) -> dm_env.Environment:
+         num_devices: int = 1, use_slot_sizes: bool = True) -> dm_env.Environment:
     """Creates an environment by map name: the simulator's, or the real game's.
 
     Args:
@@ -262,6 +262,9 @@ def make(map_name: str, screen_size: specs.Size = 64, minimap_size: specs.Size =
         and episodes to PySC2's 30 game minutes (`LADDER_GAME_STEPS`), a tie.
       num_devices: split a `BatchedSC2Env`'s environments over this many local devices
         (0: all; see `BatchedSC2Env`). Only with num_envs and the simulator.
+      use_slot_sizes: the simulator's (`Simulator`): True (the default) runs the economy
+        and wave maps on the unit slots in use; False on every slot, the same game, slower
+        to run but about three times quicker to compile.
 
     Returns:
       An `SC2Env` (num_envs None), a `BatchedSC2Env`, or for backend "sc2" a
@@ -295,7 +298,7 @@ def make(map_name: str, screen_size: specs.Size = 64, minimap_size: specs.Size =
         minimap_features=None if minimap_features is None else tuple(minimap_features),
         use_feature_units=use_feature_units, use_raw_units=use_raw_units, max_units=max_units)
     sim = simulator(map_name, fmt, step_mul, score_index, float(score_multiplier),
-                    float(discount), allow_cheating_layers)
+                    float(discount), allow_cheating_layers, use_slot_sizes)
     if num_envs is None:
         return SC2Env(sim, seed, ensure_available_actions, game_steps_per_episode)
     return BatchedSC2Env(sim, num_envs, seed, ensure_available_actions, game_steps_per_episode,

@@ -2,7 +2,6 @@
 file of its own, so that the two test workers share the contract's work; the simple maps'
 single steps are the contract's programs, DefeatZerglingsAndBanelings' here are its own)."""
 
-import dataclasses
 
 import jax
 import numpy as np
@@ -14,8 +13,8 @@ from tests.environment.helpers import PARAMS, compiled, small_sim
 MAP_NAMES = sorted(MAPS)
 
 
-# The simple engine's maps and one wave map, run on all its slots
-# (`use_slot_sizes=False`): its batched step on its slot sizes compiles every size, single
+# The simple engine's maps and one wave map, run on all its slots (`small_sim`'s
+# `use_slot_sizes=False`): its batched step on its slot sizes compiles every size, single
 # and batched (75 s in a 2-core suite; on all slots, 30 s). The slot sizes
 # are checked apart: tests/environment/test_combat.py plays the wave maps on their leading
 # slots as on all slots, and tests/environment/test_lazy.py checks `smallest_fit`'s
@@ -29,8 +28,6 @@ MAP_NAMES = sorted(MAPS)
     if m not in ("BuildMarines", "CollectMineralsAndGas", "DefeatRoaches")])
 def test_vmap_matches_single(map_name):
     sim = small_sim(map_name)
-    if sim.game.slot_sizes is not None:
-        sim = dataclasses.replace(sim, use_slot_sizes=False)
     reset, step = compiled(sim)
     vreset, vstep = compiled(sim, batched=True)
     # Four environments, as tests/environment/engine/xla/test_devices.py batches MoveToBeacon (one

@@ -48,8 +48,9 @@ def _split_over(fn, devices):
 @functools.cache
 def simulator(map_name: str, fmt: specs.ObservationFormat, step_mul: int, score_index: int,
               score_multiplier: float, discount: float,
-              allow_cheating_layers: bool) -> Simulator:
+              allow_cheating_layers: bool, use_slot_sizes: bool = True) -> Simulator:
     """One `Simulator` per configuration, so environments share compiled code."""
     return Simulator(map_name=map_name, fmt=fmt, step_mul=step_mul, score_index=score_index,
                      score_multiplier=score_multiplier, discount=discount,
-                     allow_cheating_layers=allow_cheating_layers)
+                     allow_cheating_layers=allow_cheating_layers,
+                     use_slot_sizes=use_slot_sizes)

@@ -351,7 +351,7 @@ def _wave_about_to_come(extra: int):
 @functools.cache
 def _every_slot_step():
     """DefeatRoaches' jitted step on all of its slots."""
-    return jax.jit(dataclasses.replace(small_sim("DefeatRoaches"), use_slot_sizes=False).step)
+    return compiled(small_sim("DefeatRoaches"))[1]
 
 
 @pytest.mark.slow  # About 15-20 s on 2 cores: the fast tier stays under 3 minutes.
@@ -361,7 +361,7 @@ def test_wave_maps_play_on_their_leading_slots_as_on_all_slots():
     reinforcements: 9 marines before a wave that makes 14 need 18 slots, so the step
     runs on 20, and plays and is observed bit for bit as on all 68
     (`use_slot_sizes=False`), and so do random steps after it."""
-    sim = small_sim("DefeatRoaches")
+    sim = small_sim("DefeatRoaches", sized=True)
     leading = compiled(sim)[1]
     state = _wave_about_to_come(0)
     assert sim.game.slot_sizes == (20, 68)
@@ -384,7 +384,7 @@ def test_a_run_whose_last_slot_fills_runs_again_on_more_slots():
     tried on 20 slots (16 for 19 marines), where the wave fills the last slot: the run
     is tried again on all 68 and matches the game there (`Simulator.advance`, against
     the state of the step on all slots)."""
-    sim = dataclasses.replace(small_sim("DefeatRoaches"))  # A game of its own.
+    sim = dataclasses.replace(small_sim("DefeatRoaches", sized=True))  # A game of its own.
     object.__setattr__(sim.game, "spawn_room", 0)
     state = _wave_about_to_come(5)
     assert int(jax.jit(sim.slots_needed)(state.units)) == 18

@@ -137,11 +137,9 @@ def test_bad_settings_are_refused(width, region):
 @pytest.mark.slow
 def test_slot_sizes_draw_what_all_slots_draw():
     # BuildMarines draws from the leading 32, 96 or 200 slots, as its observations.
-    from sc2jax.environment.engine.simulator import Simulator
-
-    sim = small_sim("BuildMarines")
+    sim = small_sim("BuildMarines", sized=True)
     state, _ = jax.jit(sim.reset)(jax.random.PRNGKey(1), PARAMS)
-    every = Simulator(sim.map_name, sim.fmt, use_slot_sizes=False)
+    every = small_sim("BuildMarines")
     assert sim.game.slot_sizes and int(state.units.alive.sum()) < 32
     np.testing.assert_array_equal(jax.jit(HumanView(sim, 192).draw)(state),
                                   jax.jit(HumanView(every, 192).draw)(state))

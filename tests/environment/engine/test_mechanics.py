@@ -187,7 +187,7 @@ def test_a_run_time_loop_count_steps_as_that_step_mul_does():
     sim = small_sim(map_name)
     dynamic = jax.jit(lambda state, action, count: sim.step(state, action, PARAMS,
                                                             loops=count))
-    fixed = simulator(map_name, sim.fmt, loops, 0, 1.0, 1.0, False)
+    fixed = simulator(map_name, sim.fmt, loops, 0, 1.0, 1.0, False, sim.use_slot_sizes)
     played = list(random_play(fixed, seed=loops, steps=6))
     state = played[0][0]
     for action, want_state, want_timestep in played[1:]:

@@ -343,7 +343,8 @@ def test_leading_slots_play_the_same_game_as_all_slots(marines, needs):
     (`use_slot_sizes=False`): with 10 marines at 32 slots, then at 96; with 11 at 96,
     which the Command Center's room decides (at 32 the SCV would find no free slot).
     Batches take their largest need: tests/environment/test_lazy.py."""
-    state, step = start(BM)
+    state, step_every = start(BM)  # `small_sim`: every slot.
+    step = compiled(small_sim(BM, sized=True))[1]
     units, tag = place(state.units, 21 + np.arange(marines), UnitType.MARINE, Owner.SELF,
                        jnp.asarray(COMMAND_CENTER) + jnp.stack(
                            [jnp.linspace(-4.0, 4.0, marines), jnp.full(marines, -4.0)],
@@ -351,9 +352,7 @@ def test_leading_slots_play_the_same_game_as_all_slots(marines, needs):
     cc = slots(state, UnitType.COMMAND_CENTER)[0]
     units = units.replace(queue=units.queue.at[cc, 0].set(UnitType.SCV),
                           queue_work=units.queue_work.at[cc, 0].set(270.0))
-    every = Simulator(BM, SMALL, use_slot_sizes=False)
-    step_every = compiled(every)[1]
-    need = jax.jit(small_sim(BM).slots_needed)
+    need = jax.jit(small_sim(BM, sized=True).slots_needed)
     a = b = state.replace(units=units, next_tag=tag)
     seen = []
     for _ in range(3):

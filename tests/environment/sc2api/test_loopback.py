@@ -13,12 +13,13 @@ from sc2jax.environment.interface.dense import from_dense
 from sc2jax.environment.interface.layout import available_mask
 from sc2jax.environment.sc2api.controller import Controller
 from sc2jax.environment.sc2api.game_env import GameEnv
-from tests.environment.helpers import SMALL_MAKE
+from tests.environment.helpers import SMALL_FORMAT
 
-# The format of the contract tests: the server steps that very program (compiled once).
+# The format of the contract tests, on the slots in use as the server runs it: the local
+# environment and the server step the very same program (compiled once).
 SIZES = dict(screen_size=32, minimap_size=32)
 UNITS = dict(use_feature_units=True, use_raw_units=True)
-assert SMALL_MAKE == {**SIZES, **UNITS}
+assert SMALL_FORMAT == {**SIZES, **UNITS}
 
 
 def _assert_same(local, remote, where):
