@@ -13,13 +13,14 @@ from sc2jax.environment.interface.dense import from_dense
 from sc2jax.environment.interface.layout import available_mask
 from sc2jax.environment.sc2api.controller import Controller
 from sc2jax.environment.sc2api.game_env import GameEnv
-from tests.environment.helpers import SMALL_FORMAT
+from tests.environment.helpers import SMALL_MAKE
 
-# The format of the contract tests, on the slots in use as the server runs it: the local
-# environment and the server step the very same program (compiled once).
+# The contract tests' environments (on every slot: their programs are shared); the server
+# runs the same format on the slots in use, as by default, and must play the same game.
 SIZES = dict(screen_size=32, minimap_size=32)
 UNITS = dict(use_feature_units=True, use_raw_units=True)
-assert SMALL_FORMAT == {**SIZES, **UNITS}
+ALL_SLOTS = dict(use_slot_sizes=False)
+assert SMALL_MAKE == {**SIZES, **UNITS, **ALL_SLOTS}
 
 
 def _assert_same(local, remote, where):
@@ -36,7 +37,7 @@ def _assert_same(local, remote, where):
 
 
 def _loopback(server, map_name, steps, **options):
-    local = make(map_name, seed=7, **SIZES, **options)
+    local = make(map_name, seed=7, **SIZES, **ALL_SLOTS, **options)
     remote = GameEnv(lambda: Controller.connect("127.0.0.1", server.port), map_name,
                      random_seed=7, **SIZES, **options)
     key = jax.random.PRNGKey(3)
