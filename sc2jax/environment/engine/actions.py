@@ -23,7 +23,14 @@ from sc2jax.environment.engine.availability import (
     available_actions,
 )
 from sc2jax.environment.engine.render import Renderer, pick_unit
-from sc2jax.environment.engine.rules import commands, liftoff, morphs, production, research
+from sc2jax.environment.engine.rules import (
+    calldown,
+    commands,
+    liftoff,
+    morphs,
+    production,
+    research,
+)
 from sc2jax.environment.engine.rules.geometry import clamp_camera
 from sc2jax.environment.engine.rules.state import NO_TARGET, EnvState, Order, Owner
 from sc2jax.environment.engine.rules.units import UNIT_DATA, UnitType, game_name
@@ -65,6 +72,7 @@ class Kind(enum.IntEnum):
     LIFT = 25
     LAND = 26
     STIM = 27
+    CALLDOWN_MULE = 28
 
 
 _BY_NAME = {
@@ -84,6 +92,7 @@ _BY_NAME = {
     "Build_TechLab_quick": Kind.BUILD_ADDON, "Build_Reactor_quick": Kind.BUILD_ADDON,
     **{name: Kind.MORPH for name in morphs.MODES},
     "Lift_quick": Kind.LIFT, "Land_screen": Kind.LAND, "Effect_Stim_quick": Kind.STIM,
+    "Effect_CalldownMULE_screen": Kind.CALLDOWN_MULE,
     **{name: Kind.TRAIN for name in research.BUTTON.values()},
 }
 _BY_NAME.update({name: Kind.BUILD if name.startswith("Build_") else Kind.TRAIN
@@ -220,6 +229,11 @@ def apply_action(state: EnvState, action: DenseAction, renderer: Renderer,
             units, bank, next_tag)
         return paid(new_units, result, new_bank, new_tag)
 
+    def calldown_mule():
+        new_units, new_tag, result = calldown.calldown_mule(units, ctx.point, ctx.unit_under,
+                                                            next_tag)
+        return paid(new_units, result, bank, new_tag)
+
     def cancel_queued(index):
         new_units, new_bank, result = production.cancel_queued(units, bank, index)
         return paid(new_units, result, new_bank)
@@ -257,6 +271,7 @@ def apply_action(state: EnvState, action: DenseAction, renderer: Renderer,
         lambda: paid(*liftoff.lift(units)),
         lambda: paid(*liftoff.order_land(units, renderer.buildable, ctx.point, a.queued)),
         lambda: keep_camera(research.stim(units, state.researched)),
+        calldown_mule,
     ]
     if not economy:
         branches = branches[:Kind.BUILD]

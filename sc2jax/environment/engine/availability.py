@@ -39,6 +39,11 @@ SCV_CARD = COMBAT_CARD + ("Harvest_Gather_screen", "Harvest_Return_quick",
                           "Build_EngineeringBay_screen", "Build_Bunker_screen",
                           "Build_Factory_screen", "Build_Starport_screen")
 
+MULE_CARD = ("HoldPosition_quick", "Move_screen", "Move_minimap", "Patrol_screen",
+             "Patrol_minimap", "Smart_screen", "Smart_minimap", "Stop_quick",
+             "Harvest_Gather_screen", "Harvest_Return_quick")
+"""The MULE's card (its Repair is not modelled)."""
+
 TOWN_HALL_CARD = ("Train_SCV_quick", "Rally_Workers_screen", "Rally_Workers_minimap",
                   "Smart_screen", "Smart_minimap", "Cancel_Last_quick")
 
@@ -72,8 +77,9 @@ COMMAND_CARDS: dict[UnitType, tuple[str, ...]] = {
     UnitType.MEDIVAC: ("HoldPosition_quick", "Move_screen", "Move_minimap", "Patrol_screen",
                        "Patrol_minimap", "Smart_screen", "Smart_minimap", "Stop_quick"),
     UnitType.SCV: SCV_CARD,
+    UnitType.MULE: MULE_CARD,
     UnitType.COMMAND_CENTER: TOWN_HALL_CARD + ("Morph_OrbitalCommand_quick", "Lift_quick"),
-    UnitType.ORBITAL_COMMAND: TOWN_HALL_CARD + ("Lift_quick",),
+    UnitType.ORBITAL_COMMAND: TOWN_HALL_CARD + ("Lift_quick", "Effect_CalldownMULE_screen"),
     **{flying: FLYING_CARD for flying in (UnitType.COMMAND_CENTER_FLYING,
                                           UnitType.ORBITAL_COMMAND_FLYING,
                                           UnitType.BARRACKS_FLYING, UnitType.FACTORY_FLYING,
@@ -163,7 +169,8 @@ def available_actions(units: Units, card_table=CARD_TABLE, researched=None):
     constructing = jnp.any(own_selected & ~units.complete)
     mask = cards | (constructing & jnp.asarray(_CONSTRUCTION_MASK)) | jnp.asarray(_ALWAYS_MASK)
     count = jnp.sum(units.selected & units.alive)
-    carrying = own_selected & (units.type == UnitType.SCV) & (units.cargo > 0)
+    carrying = (own_selected & ((units.type == UnitType.SCV) | (units.type == UnitType.MULE))
+                & (units.cargo > 0))
     queue = units.queue[:, 0] != 0
     training = own_selected & units.complete & queue
     # Single entries are set through constant one-hot masks, so that the whole mask is

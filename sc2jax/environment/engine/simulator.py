@@ -25,7 +25,7 @@ from sc2jax.environment.engine.availability import CARD_TABLE
 from sc2jax.environment.engine.minigames import get_map
 from sc2jax.environment.engine.observation import observe
 from sc2jax.environment.engine.render import Renderer, sight_grid
-from sc2jax.environment.engine.rules import liftoff, production, research, score
+from sc2jax.environment.engine.rules import calldown, liftoff, production, research, score
 from sc2jax.environment.engine.rules.dynamics import facing_of, game_loop, turned
 from sc2jax.environment.engine.rules.state import (
     NUM_SCORE_CUMULATIVE,
@@ -305,6 +305,8 @@ class Simulator:
             next_tag, spent = state.next_tag, jnp.zeros(2, jnp.int32)
             researched = state.researched
             if game.has_production:
+                units, expired = calldown.expire(units)
+                events = events._replace(died=events.died | expired)
                 economy = production.production_loop(units, bank, next_tag, buildable)
                 researched = researched | economy.researched
                 units = research.shield_health(liftoff.land_arrivals(economy.units, buildable),

@@ -21,6 +21,7 @@ from sc2jax.environment.engine.rules.harvest import (
     DEPOT_SLOTS,
     LEAVE_LOOPS,
     MINING_LOOPS,
+    MULE_MINING_LOOPS,
     REACH,
     nearest_depot,
 )
@@ -174,3 +175,19 @@ def test_nearest_depot_measures_to_every_command_center_also_beyond_those_it_che
     nearest = np.asarray(jax.jit(jax.vmap(nearest_depot))(batch))
     np.testing.assert_array_equal(nearest[0], _brute_nearest_depot(few))
     np.testing.assert_array_equal(nearest[1], _brute_nearest_depot(many))
+
+
+def test_a_mule_mines_25_beside_an_scv_and_only_another_mule_keeps_it_waiting():
+    # An SCV (slot 2) and two MULEs (3, 4) reach the field together, 8 loops away. The
+    # SCV and the first MULE mine at once, side by side; the second MULE waits for the
+    # first. The MULE mines 3.85 times as long as the SCV: 171.6 loops, done on the 172nd.
+    units = scene([33.0, 33.0, 33.0])
+    units = units.replace(type=units.type.at[3].set(UnitType.MULE).at[4].set(UnitType.MULE))
+    touched = math.ceil((FIELD[0] - R_FIELD - R_SCV - REACH - 33.0) / SPEED)
+    units, _ = run(units, touched + 1)
+    work = np.asarray(units.work)[2:5]
+    assert work[0] > 0 and work[1] > 0 and work[2] == 0
+    assert MULE_MINING_LOOPS == 3.85 * MINING_LOOPS
+    units, _ = run(units, math.ceil(MULE_MINING_LOOPS) - 1)
+    np.testing.assert_array_equal(np.asarray(units.cargo)[3:5], [25.0, 0.0])
+    assert float(units.work[4]) > 0  # The second MULE mines once the first has left.

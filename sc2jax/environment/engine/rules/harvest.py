@@ -16,7 +16,10 @@ The game's cycle (reference/pysc2_facts.md §7), run once per game loop by
 - a field mined out disappears, and the workers on it go idle;
 - gas the same way from the player's complete Refinery: 4 per trip after 1.981 game
   seconds inside (`GAS_LOOPS`); a Refinery with no gas left stays, and its workers go
-  idle.
+  idle;
+- a MULE (`calldown`) mines minerals only, 25 a trip (`MULE_TRIP`) for 3.85 times an
+  SCV's mining time (`MULE_MINING_LOOPS`), and mines beside an SCV: a field is taken
+  for a MULE only by another MULE mining it.
 
 Moving and mining workers pass through other units, as harvesting workers do in the
 game; they keep their orders' targets in `Units.order_unit`, and the field a worker
@@ -50,6 +53,9 @@ LEAVE_LOOPS = 0.5 * LOOPS_PER_SECOND
 GAS_LOOPS = 1.981 * LOOPS_PER_SECOND
 """Loops a worker harvests inside a Refinery for (1.981 game seconds: 32 whole loops)."""
 GAS_PER_TRIP = 4.0
+MULE_MINING_LOOPS = 3.85 * MINING_LOOPS
+"""Loops a MULE mines a mineral field for (Liquipedia: 3.85 times an SCV's)."""
+MULE_TRIP = 25.0
 SPREAD_RADIUS = 8.0
 """How far a worker whose mineral field is taken looks for another one (world units)."""
 
@@ -171,6 +177,25 @@ def _spread(units: Units, field, blocked, contents, field_slots):
     return jnp.where(moves, best, field)
 
 
+def _free(aims, mining, waiting, field, kind):
+    """bool[N]: each worker's field is free for it among the workers of its `kind`
+    (bool[N]): none of them mines it, and the worker is the lowest slot of them waiting
+    there.
+
+    Args:
+      aims: bool[N, N], [worker, unit]: the worker's field is the unit.
+      mining: bool[N] the workers mining on after this loop.
+      waiting: bool[N] the workers at their field, waiting to mine.
+      field: int32[N] each worker's field.
+      kind: bool[N] the workers of the kind.
+    """
+    n = aims.shape[0]
+    rows = jnp.arange(n)
+    occupied = jnp.any(aims & (mining & kind)[:, None], axis=0)
+    first = jnp.min(jnp.where(aims & (waiting & kind)[:, None], rows[:, None], n), axis=0)
+    return ~occupied[field] & (first[field] == rows)
+
+
 def harvest(units: Units, touching, depot, field_slots=None) -> tuple[
         Units, jnp.ndarray, jnp.ndarray, jnp.ndarray]:
     """One loop of the harvest cycle, after the loop's movement.
@@ -188,12 +213,12 @@ def harvest(units: Units, touching, depot, field_slots=None) -> tuple[
       advance their order queues.
     """
     n = units.num_slots
-    rows = jnp.arange(n)
     order, target = units.orders[:, 0], units.order_unit[:, 0]
     safe = jnp.clip(target, 0, n - 1)
     refinery = units.type[safe] == UnitType.REFINERY
-    harvestable = jnp.where(refinery, units.complete[safe] & (units.owner[safe] == units.owner),
-                            units.type[safe] == UnitType.MINERAL_FIELD)
+    mule = units.type == UnitType.MULE
+    harvestable = jnp.where(refinery, units.complete[safe] & (units.owner[safe] == units.owner)
+                            & ~mule, units.type[safe] == UnitType.MINERAL_FIELD)
     field_ok = (target >= 0) & units.alive[safe] & (units.contents[safe] > 0) & harvestable
     gather = units.alive & (order == Order.GATHER)
     returning = units.alive & (order == Order.RETURN)
@@ -204,19 +229,24 @@ def harvest(units: Units, touching, depot, field_slots=None) -> tuple[
     pausing = returning & (units.work > 0)
     work = jnp.where(mining | pausing, units.work - 1.0, units.work)
     finished = mining & (work <= 0)
-    trip = jnp.where(refinery, GAS_PER_TRIP, MINERALS_PER_TRIP)
+    trip = jnp.where(refinery, GAS_PER_TRIP, jnp.where(mule, MULE_TRIP, MINERALS_PER_TRIP))
     take = jnp.where(finished, jnp.minimum(trip, units.contents[safe]), 0.0)
     # By target over [N, N] pairs, not scatters (`targeted_by`); the sum is exact in any
     # order, as resources come in whole units.
     aims = targeted_by(safe, n)
     contents = units.contents - jnp.sum(jnp.where(aims, take[:, None], 0.0), axis=0)
 
-    # Starting to mine: at the field, empty-handed, the field free; the lowest slot first.
-    occupied = jnp.any(aims & (mining & ~finished)[:, None], axis=0)
+    # Starting to mine: at the field, empty-handed, the field free of its kind of worker
+    # (SCVs and MULEs mine side by side); the lowest slot first.
     waiting = gather & ~mining & touching & field_ok & (units.cargo == 0)
-    first = jnp.min(jnp.where(aims & waiting[:, None], rows[:, None], n), axis=0)
-    start = waiting & ~occupied[safe] & (first[safe] == rows)
-    work = jnp.where(start, jnp.where(refinery, GAS_LOOPS, MINING_LOOPS),
+    busy = (aims, mining & ~finished, waiting, safe)
+    # MULEs are rare: the two kinds are told apart only in loops where one lives.
+    free = lazy_where(jnp.any(units.alive & mule),
+                      lambda a: jnp.where(a[0], _free(*a[1:], a[0]), _free(*a[1:], ~a[0])),
+                      (mule, *busy), _free(*busy, jnp.ones(n, bool)))
+    start = waiting & free
+    mine_loops = jnp.where(mule, MULE_MINING_LOOPS, MINING_LOOPS)
+    work = jnp.where(start, jnp.where(refinery, GAS_LOOPS, mine_loops),
                      jnp.where(finished, jnp.where(refinery, 0.0, LEAVE_LOOPS), work))
     blocked = waiting & ~start & ~refinery
     target = jnp.where(blocked, _spread(units, safe, blocked, contents, field_slots), target)

@@ -94,7 +94,7 @@ class AddOn(enum.IntEnum):
 
 
 # What the Terran data table says each type makes, needs and counts as; types the table
-# does not hold make nothing. The MULE (called down for energy) is not made yet.
+# does not hold make nothing. The MULE is called down for energy (`calldown`), not made.
 _NOT_YET = (UnitType.MULE,)
 
 

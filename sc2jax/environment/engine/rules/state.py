@@ -131,6 +131,7 @@ class Units:
         while that slot holds a living add-on beside it (`production.addon_kinds`).
       stim: float32[N] loops a Stimpack lasts (`research`), else 0.
       slow: float32[N] loops a Concussive Shells slow lasts, else 0.
+      life: float32[N] loops a timed unit (the MULE) has left to live, else 0.
     """
 
     alive: jax.Array
@@ -165,6 +166,7 @@ class Units:
     addon: jax.Array
     stim: jax.Array
     slow: jax.Array
+    life: jax.Array
 
     @property
     def num_slots(self) -> int:
@@ -197,7 +199,7 @@ class Units:
             home=jnp.full((n,), NO_TARGET, jnp.int32), gas=jnp.zeros(n, bool), progress=f(n),
             queue=i(n, b), queue_work=f(n, b), rally=f(n, 2),
             rally_unit=jnp.full((n,), NO_TARGET, jnp.int32), rallied=jnp.zeros(n, bool),
-            addon=jnp.full((n,), NO_TARGET, jnp.int32), stim=f(n), slow=f(n))
+            addon=jnp.full((n,), NO_TARGET, jnp.int32), stim=f(n), slow=f(n), life=f(n))
 
 
 @struct.dataclass
@@ -260,7 +262,8 @@ def _new_units(units: Units, k: int, unit_type, owner, positions, tags, selected
         groups=0, cargo=0.0, work=0.0, contents=jnp.asarray(data.contents)[types],
         home=NO_TARGET, order_type=0, gas=False,
         progress=jnp.asarray(data.build_time)[types], queue=0, queue_work=0.0,
-        rally_unit=NO_TARGET, rallied=False, addon=NO_TARGET, stim=0.0, slow=0.0)
+        rally_unit=NO_TARGET, rallied=False, addon=NO_TARGET, stim=0.0, slow=0.0,
+        life=0.0)
     fields = {name: getattr(units, name) for name in values}
     return {name: jnp.broadcast_to(jnp.asarray(value, fields[name].dtype),
                                    (k,) + fields[name].shape[1:])
