@@ -1,6 +1,7 @@
 """Compilation settings for the test processes of one session.
 
-- A JAX compilation cache shared by the test processes and the processes they start.
+- A JAX compilation cache shared by the test processes and the processes they start
+  (the commands' own cache, `SC2JAX_COMPILATION_CACHE`, included).
   Many tests build the same program more than once (training runs that are resumed, a
   run trained and then evaluated, every xdist worker compiling a map's step, the
   SC2-API server stepping the program the contract tests compile). A persistent cache in a fresh
@@ -40,6 +41,8 @@ def pytest_configure(config):
         # The controlling process makes the directory; xdist workers inherit it.
         os.environ[_ENV] = tempfile.mkdtemp(prefix="sc2jax-test-jax-cache-")
         config._sc2jax_cache_owner = True
+    # The commands the tests start use it too, not the user's (~/.cache/sc2jax/jax).
+    os.environ["SC2JAX_COMPILATION_CACHE"] = os.environ[_ENV]
     settings = {"jax_compilation_cache_dir": os.environ[_ENV],
                 "jax_persistent_cache_min_compile_time_secs": 0.5,
                 "jax_persistent_cache_min_entry_size_bytes": 0}

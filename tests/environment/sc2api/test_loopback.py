@@ -1,6 +1,12 @@
 """Over loopback, a `GameEnv` driving the simulator's SC2-API server sees the in-process
 `SC2Env`'s episodes bit for bit: the same observations (unit lists included), rewards,
-discounts and step types for the same seed and actions, on every mini-game."""
+discounts and step types for the same seed and actions, on the mini-games.
+
+DefeatRoaches and BuildMarines are left out (each 45-55 s of a 2-core suite): the
+server's paths for them are DefeatZerglingsAndBanelings' (waves, combat on the leading
+slots, and more: the banelings' bursts) and CollectMineralsAndGas' (production on the
+leading slots, every Terran card), and the map scripts are the simulator's, which the
+contract tests play."""
 
 import jax
 import numpy as np
@@ -64,8 +70,9 @@ def test_move_to_beacon_over_the_api_is_the_simulator_bit_for_bit(server):
 
 
 @pytest.mark.slow  # The fast tier keeps MoveToBeacon's whole episode over the API.
-@pytest.mark.parametrize("map_name", sorted(set(MAPS) - {"MoveToBeacon"}))
-def test_every_mini_game_over_the_api_is_the_simulator_bit_for_bit(server, map_name):
+@pytest.mark.parametrize("map_name", sorted(set(MAPS) - {"MoveToBeacon", "DefeatRoaches",
+                                                         "BuildMarines"}))
+def test_the_mini_games_over_the_api_are_the_simulator_bit_for_bit(server, map_name):
     # Truncated episodes (LAST with the discount kept) and restarts, 3 episodes.
     kinds = _loopback(server, map_name, 45, game_steps_per_episode=160, **UNITS)
     assert (2, 1.0) in kinds

@@ -43,7 +43,7 @@ def test_a_cloned_scripted_agent_plays_and_starts_a3c(tmp_path):
     assert held_out["action_top1"] > 0.9  # The scripted agent moves: Move_screen.
     scores = tmp_path / "scores.json"
     _command("sc2jax.experiments.evaluate", f"--run_dir={clone}", "--map=MoveToBeacon",
-             "--episodes=16", "--num_envs=16", f"--output={scores}")
+             "--episodes=8", "--num_envs=8", f"--output={scores}")
     played = json.loads(scores.read_text())
     assert played["config"]["screen_size"] == 16 and played["config"]["replay_updates"] == 150
     assert played["mean"] > 10 * RANDOM_MEAN, played
