@@ -4,6 +4,7 @@ its 64 seconds."""
 
 import jax.numpy as jnp
 import numpy as np
+import pytest
 
 from sc2jax.environment import FUNCTIONS
 from sc2jax.environment.engine.minigames.economy import COMMAND_CENTER, LEFT_FIELDS
@@ -30,6 +31,7 @@ def orbital(energy):
     return state, step, ts, cc
 
 
+@pytest.mark.slow  # 180 steps of CollectMineralsAndGas.
 def test_a_mule_called_down_on_a_field_mines_it_and_dies_after_64_seconds():
     state, step, ts, cc = orbital(50.0)
     assert F.Effect_CalldownMULE_screen.id in available(ts)
