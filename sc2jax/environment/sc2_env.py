@@ -264,7 +264,7 @@ def make(map_name: str, screen_size: specs.Size = 64, minimap_size: specs.Size =
         (0: all; see `BatchedSC2Env`). Only with num_envs and the simulator.
       use_slot_sizes: the simulator's (`Simulator`): True (the default) runs the economy
         and wave maps on the unit slots in use; False on every slot, the same game, slower
-        to run but about three times quicker to compile.
+        to run but quicker to compile (one copy of the game loop, not one per slot size).
 
     Returns:
       An `SC2Env` (num_envs None), a `BatchedSC2Env`, or for backend "sc2" a

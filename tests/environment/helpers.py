@@ -4,9 +4,10 @@
 dm_env wrappers, the functional API and the contract tests compile each map once.
 
 Both run every unit slot (`use_slot_sizes=False`): the same game, compiled about three
-times as fast on the maps with slot sizes. The tests of the leading slots ask for them
-(`small_sim(..., sized=True)`), and the SC2-API server, training and the commands run on
-them as by default.
+times as fast on the maps with slot sizes (one copy of the game loop: DefeatRoaches'
+step 4.2 s against 14.2 s, 2-core CPU, 2026-11-30). The tests of the leading slots ask
+for them (`small_sim(..., sized=True)`), and the SC2-API server, training and the
+commands run on them as by default.
 """
 
 import functools
