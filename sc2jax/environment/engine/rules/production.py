@@ -257,9 +257,7 @@ def queue_cost(holder, item):
 def pending(units: Units, researched):
     """bool[R]: the research done (bool[R] `researched`) or in one of the player's
     queues; neither can be queued again."""
-    items = research.FIRST + jnp.arange(len(research.Research), dtype=jnp.int32)
-    queued = _own(units)[:, None, None] & (units.queue[..., None] == items)
-    return jnp.asarray(researched) | jnp.any(queued, axis=(0, 1))
+    return jnp.asarray(researched) | research.queued(units.queue, _own(units)[:, None])
 
 
 def equipped(units: Units, unit_type):
@@ -716,8 +714,7 @@ def _train(units: Units, next_tag):
     units = morphs.upgrade_done(units, upgraded[:, 0])
     units = units.replace(queue=jnp.where(upgraded, 0, units.queue))
     researching = done & (units.queue >= research.FIRST)
-    items = research.FIRST + jnp.arange(len(research.Research), dtype=jnp.int32)
-    finished = jnp.any(researching[..., None] & (units.queue[..., None] == items), axis=(0, 1))
+    finished = research.queued(units.queue, researching)
     work, done = jnp.where(upgraded, 0.0, work), done & ~upgraded & ~researching
     # Units finish rarely: the spawning is computed only in loops where one does.
     units, next_tag, trained = lazy_where(

@@ -29,6 +29,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from sc2jax.environment.engine import terran_data
+from sc2jax.environment.engine.rules import commands
 from sc2jax.environment.engine.rules.state import NO_TARGET, Owner, Units, targeted_by
 from sc2jax.environment.engine.rules.units import UNIT_DATA, UnitType, terran_types
 from sc2jax.environment.interface.functions import FUNCTIONS, FunctionType, function_for_ability
@@ -118,6 +119,13 @@ WEAPON_STEP[UnitType.MARAUDER] = (np.array([1.0, 1.0])
                                   / UNIT_DATA.attacks[UnitType.MARAUDER])
 
 
+def queued(queue, where) -> jax.Array:
+    """bool[R]: the researches among the queue items int32[N, B] `queue` where bool[N, B]
+    (or bool[N, 1]) `where` holds."""
+    items = FIRST + jnp.arange(len(Research), dtype=jnp.int32)
+    return jnp.any(where[..., None] & (queue[..., None] == items), axis=(0, 1))
+
+
 def done(researched, research) -> jax.Array:
     """bool: `research` is in bool[R] `researched`."""
     return jnp.asarray(researched)[int(research)]
@@ -160,7 +168,7 @@ def stim(units: Units, researched):
       (units, ok bool: any stimmed).
     """
     cost = jnp.asarray(STIM_HEALTH)[units.type]
-    stims = (units.selected & units.complete & (units.owner == Owner.SELF) & (cost > 0)
+    stims = (commands.commandable(units) & units.complete & (cost > 0)
              & (units.health > cost) & done(researched, Research.STIMPACK))
     return units.replace(health=jnp.where(stims, units.health - cost, units.health),
                          stim=jnp.where(stims, STIM_LOOPS, units.stim)), stims.any()
