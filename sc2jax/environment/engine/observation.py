@@ -13,7 +13,7 @@ from sc2jax.environment.engine.availability import (
     idle_worker_count,
 )
 from sc2jax.environment.engine.render import Renderer, player_relative
-from sc2jax.environment.engine.rules import liftoff, production, research
+from sc2jax.environment.engine.rules import liftoff, players, production, research
 from sc2jax.environment.engine.rules.geometry import squared_length
 from sc2jax.environment.engine.rules.harvest import nearest_depot
 from sc2jax.environment.engine.rules.state import EnvState, Order, Owner, Units
@@ -104,7 +104,7 @@ def _player(state: EnvState):
     food = jnp.asarray(UNIT_DATA.food)[units.type]
     army = jnp.asarray(UNIT_DATA.is_army)[units.type]
     return jnp.stack([
-        jnp.int32(Owner.SELF), state.minerals, state.vespene,
+        players.player_id(state), state.minerals, state.vespene,
         jnp.ceil(production.food_used(units)).astype(jnp.int32),
         production.food_cap(units),
         jnp.ceil(jnp.sum(jnp.where(own & army, food, 0.0))).astype(jnp.int32),

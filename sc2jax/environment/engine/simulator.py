@@ -22,10 +22,17 @@ from flax import struct
 
 from sc2jax.environment.engine.actions import apply_action
 from sc2jax.environment.engine.availability import CARD_TABLE
-from sc2jax.environment.engine.minigames import get_map
+from sc2jax.environment.engine.minigames import get_map, melee
 from sc2jax.environment.engine.observation import observe
 from sc2jax.environment.engine.render import Renderer, sight_grid
-from sc2jax.environment.engine.rules import calldown, liftoff, production, research, score
+from sc2jax.environment.engine.rules import (
+    calldown,
+    liftoff,
+    players,
+    production,
+    research,
+    score,
+)
 from sc2jax.environment.engine.rules.dynamics import facing_of, game_loop, turned
 from sc2jax.environment.engine.rules.state import (
     NUM_SCORE_CUMULATIVE,
@@ -63,7 +70,7 @@ class Simulator:
     """One mini-game with a fixed observation format (a static, hashable config).
 
     Attributes:
-      map_name: one of `minigames.MAPS`.
+      map_name: a mini-game (`minigames.MAPS`) or a ladder map (`map_names.LADDER_MAPS`).
       fmt: the observation format.
       step_mul: game loops per agent step.
       score_index: the reward: the change of `score_cumulative[score_index]` (0 is the
@@ -73,10 +80,14 @@ class Simulator:
       score_multiplier: multiplies every reward.
       discount: the discount of MID steps (and of truncated LAST steps).
       allow_cheating_layers: fill the minimap `unit_type` layer.
-      use_slot_sizes: on maps with `slot_sizes` (the economy and wave maps), run the game
-        loops and render the observation on the leading unit slots in use (the
+      use_slot_sizes: on maps with `slot_sizes` (the economy, wave and melee maps), run
+        the game loops and render the observation on the leading unit slots in use (the
         default); False runs them on every slot, with the same results, slower (for
         checks).
+      num_slots: None, or on a melee map its unit slots in place of `melee.NUM_SLOTS`
+        (768: two players at 200 supply): fewer cap the units the game holds (a unit
+        trained without a free slot waits in its queue, a structure is not placed) and
+        compile and run faster, for the early game.
     """
 
     map_name: str = "MoveToBeacon"
@@ -87,9 +98,12 @@ class Simulator:
     discount: float = 1.0
     allow_cheating_layers: bool = False
     use_slot_sizes: bool = True
+    num_slots: int | None = None
 
     def __post_init__(self):
         game = get_map(self.map_name)
+        if self.num_slots is not None:
+            game = melee.with_slots(game, self.num_slots)
         if not isinstance(self.fmt, specs.ObservationFormat):
             raise ValueError(f"fmt must be an ObservationFormat, got {type(self.fmt).__name__}")
         if isinstance(self.step_mul, bool) or not isinstance(self.step_mul, int) or not (
@@ -133,7 +147,7 @@ class Simulator:
                                      jnp.float32(0.0))
 
     def step(self, state: EnvState, action: DenseAction, params: EnvParams | None = None,
-             previous: dict | None = None, loops=None):
+             previous: dict | None = None, loops=None, other_action: DenseAction | None = None):
         """Advances one agent step (or starts a new episode after LAST).
 
         Args:
@@ -151,29 +165,70 @@ class Simulator:
             [1, 10000]: the step's game loops as a run-time value, so one compiled
             program runs any count (the SC2-API server's `RequestStep.count`). The
             step is then the step of a simulator with `step_mul=loops`, bit for bit.
+          other_action: on a two-player map, None (the other player does nothing) or
+            the other player's action, taken from its own observation
+            (`step_both`), applied after the player's.
 
         Returns:
           (state, dm_env.TimeStep of arrays).
 
         Raises:
           ValueError: (while tracing) `previous`'s feature layers are not of this
-            simulator's shapes.
+            simulator's shapes, or `other_action` is given on a one-player map.
         """
+        new, (timestep, _) = self._step(state, action, params, previous, loops, other_action,
+                                        both=False)
+        return new, timestep
+
+    def step_both(self, state: EnvState, actions, params: EnvParams | None = None):
+        """Both players of a two-player map act, each from its own observation, and the
+        game advances one agent step (or starts a new episode after LAST), as PySC2's
+        two-agent environments do.
+
+        Args:
+          state: the current state (the player's view; `players.mirror` is the other's).
+          actions: (the player's `DenseAction`, the other player's).
+          params: the episode parameters.
+
+        Returns:
+          (state, (the player's TimeStep, the other player's TimeStep)): the same step
+          type and discount, each player's own reward and observation.
+
+        Raises:
+          ValueError: (while tracing) on a one-player map.
+        """
+        if self.game.players != 2:
+            raise ValueError(f"step_both needs a two-player map; {self.map_name} has one player")
+        action, other_action = actions
+        return self._step(state, action, params, None, None, other_action, both=True)
+
+    def _step(self, state, action, params, previous, loops, other_action, both: bool):
+        """`step`, and the other player's timestep where `both`."""
         self._check_previous(previous)
+        if other_action is not None and self.game.players != 2:
+            raise ValueError(f"other_action applies to two-player maps; {self.map_name} has "
+                             "one player")
         params = self.default_params() if params is None else params
         over = self.episode_over(state, params)
         reset_key, _ = threefry.split(state.key)
         # The auto-reset: a fresh episode, computed only when one starts.
         new = lazy_where(over, self._initial_state, reset_key,
-                         self.advance(state, action, loops))
+                         self.advance(state, action, loops, other_action))
         ended = self.episode_over(new, params)
         terminated = new.outcome != Outcome.RUNNING
         step_type = jnp.where(over, dm_env.StepType.FIRST,
                               jnp.where(ended, dm_env.StepType.LAST, dm_env.StepType.MID))
-        reward = jnp.where(over, 0.0, self._reward(state, new, ended)) * self.score_multiplier
-        discount = jnp.where(over | terminated, 0.0, self.discount)
-        return new, self._timestep(new, step_type.astype(jnp.int32), reward.astype(jnp.float32),
-                                   discount.astype(jnp.float32), previous)
+        step_type = step_type.astype(jnp.int32)
+        discount = jnp.where(over | terminated, 0.0, self.discount).astype(jnp.float32)
+
+        def timestep(old, new, previous):
+            reward = jnp.where(over, 0.0, self._reward(old, new, ended)) * self.score_multiplier
+            return self._timestep(new, step_type, reward.astype(jnp.float32), discount,
+                                  previous)
+
+        other = (timestep(players.mirror(state), players.mirror(new), None) if both
+                 else None)
+        return new, (timestep(state, new, previous), other)
 
     def act(self, state: EnvState, action: DenseAction) -> EnvState:
         """Applies an action without advancing the game (the SC2 API's `RequestAction`).
@@ -190,12 +245,16 @@ class Simulator:
         return apply_action(state, action, self.renderer, self.card_table,
                             economy=self.game.has_production)
 
-    def advance(self, state: EnvState, action: DenseAction, loops=None) -> EnvState:
-        """Applies the action and runs `step_mul` (or `loops`, as in `step`) game loops,
-        with no auto-reset: the state part of `step` (the SC2 API's `RequestAction` then
-        `RequestStep`)."""
+    def advance(self, state: EnvState, action: DenseAction, loops=None,
+                other_action: DenseAction | None = None) -> EnvState:
+        """Applies the action (and the other player's, as in `step`) and runs `step_mul`
+        (or `loops`, as in `step`) game loops, with no auto-reset: the state part of
+        `step` (the SC2 API's `RequestAction` then `RequestStep`)."""
         _, step_key = threefry.split(state.key)
-        return self._advance(state.replace(key=step_key), action, loops)
+        state = self.act(state.replace(key=step_key), action)
+        if other_action is not None:
+            state = players.mirror(self.act(players.mirror(state), other_action))
+        return self._advance(state, loops)
 
     def episode_over(self, state: EnvState, params: EnvParams):
         """bool: the episode has ended (a LAST timestep was, or will be, emitted)."""
@@ -266,8 +325,9 @@ class Simulator:
         init_key, state_key = threefry.split(key)
         units, map_state, next_tag = self.game.init(init_key)
         h, w = self.game.geometry.size[1], self.game.geometry.size[0]
+        cameras = jnp.asarray(self.game.start_cameras(map_state), jnp.float32)
         state = EnvState(
-            units=units, camera=jnp.asarray(self.game.camera, jnp.float32),
+            units=units, camera=cameras[0],
             game_loop=jnp.int32(0), score=jnp.int32(0),
             score_cumulative=jnp.zeros(NUM_SCORE_CUMULATIVE, jnp.int32),
             score_by_vital=jnp.zeros((3, 3), jnp.float32),
@@ -278,17 +338,27 @@ class Simulator:
             last_action=jnp.int32(-1), action_result=jnp.int32(0),
             outcome=jnp.int32(Outcome.RUNNING), episode_step=jnp.int32(0),
             map_state=map_state, key=state_key)
-        return self._explore(state)
+        if self.game.players == 1:
+            return self.game.on_start(self._explore(state))
+        state = state.replace(other=players.side_of(state, player_id=2).replace(
+            camera=cameras[1]))
+        state = players.mirror(self._explore(players.mirror(self._explore(state))))
+        return self.game.on_start(state)
 
-    def _advance(self, state: EnvState, action: DenseAction, count=None) -> EnvState:
-        state = self.act(state, action)
+    def _advance(self, state: EnvState, count=None) -> EnvState:
+        """Runs the step's game loops (`advance`), the actions applied."""
         game = self.game
         buildable = self.renderer.buildable
+        two = state.other is not None
+        tags = state.units.tag
 
         def one_loop(_, carry):
             state, heading, last = carry
             running = state.outcome == Outcome.RUNNING
             key, loop_key = threefry.split(state.key)
+            other = state.other
+            researched = (jnp.stack([state.researched, other.researched]) if two
+                          else state.researched)
             units, events = game_loop(state.units, loop_key, game.geometry.playable,
                                       bursts=game.has_bursts, workers=game.has_workers,
                                       combat=game.has_enemies,
@@ -298,34 +368,40 @@ class Simulator:
                                       jitter_slots=game.num_slots,
                                       sized=game.slot_sizes is not None, face=False,
                                       air=game.has_air,
-                                      researched=(state.researched if game.has_production
-                                                  else None))
-            bank = jnp.stack([state.minerals + events.minerals.astype(jnp.int32),
-                              state.vespene + events.vespene.astype(jnp.int32)])
-            next_tag, spent = state.next_tag, jnp.zeros(2, jnp.int32)
-            researched = state.researched
+                                      researched=researched if game.has_production else None)
+            sides = (state, other) if two else (state,)
+            income = jnp.stack([events.minerals, events.vespene], axis=-1).astype(jnp.int32)
+            banks = jnp.stack([jnp.stack([side.minerals, side.vespene]) for side in sides]
+                              ) + income[:len(sides)]
+            next_tag, spent = state.next_tag, jnp.zeros_like(banks)
             if game.has_production:
                 units, expired = calldown.expire(units)
                 events = events._replace(died=events.died | expired)
-                economy = production.production_loop(units, bank, next_tag, buildable)
-                researched = researched | economy.researched
-                units = research.shield_health(liftoff.land_arrivals(economy.units, buildable),
-                                               researched, economy.researched,
-                                               economy.created)
-                bank, next_tag = economy.bank, economy.next_tag
-                spent = economy.spent
-                events = events._replace(created=economy.created)
-            vital = state.score_by_vital.reshape(-1)  # [3, 3]: life dealt, life taken.
-            vital = set_static(vital, {0: vital[0] + events.damage_dealt,
-                                       3: vital[3] + events.damage_taken}).reshape(3, 3)
+                units, banks, next_tag, spent, created, finished = _production(
+                    units, banks, next_tag, buildable)
+                researched = researched | (finished if two else finished[0])
+                units = research.shield_health(units, researched,
+                                               finished if two else finished[0], created)
+                events = events._replace(created=created)
             new = state.replace(units=units, key=key, game_loop=state.game_loop + 1,
-                                score_by_vital=vital, minerals=bank[0], vespene=bank[1],
-                                researched=researched, next_tag=next_tag)
-            new = score.after_loop(new, state.units, events.died, events.minerals,
-                                   events.vespene, spent)
+                                score_by_vital=_vital(state.score_by_vital, events, 0),
+                                minerals=banks[0, 0], vespene=banks[0, 1],
+                                researched=researched[0] if two else researched,
+                                next_tag=next_tag)
+            new = score.after_loop(new, state.units, events.died, events.minerals[0],
+                                   events.vespene[0], spent[0])
+            if two:
+                cumulative, rate = score.tally(
+                    players.swap_owners(units), players.swap_owners(state.units),
+                    other.score_cumulative, other.collection_rate, events.died,
+                    events.minerals[1], events.vespene[1], spent[1])
+                new = new.replace(other=other.replace(
+                    minerals=banks[1, 0], vespene=banks[1, 1], researched=researched[1],
+                    score_by_vital=_vital(other.score_by_vital, events, 1),
+                    score_cumulative=cumulative, collection_rate=rate))
             new = game.on_loop(new, events)
             timer = (new.game_loop >= game.time_limit_loops) & (new.outcome == Outcome.RUNNING)
-            new = new.replace(outcome=jnp.where(timer, int(Outcome.VICTORY), new.outcome))
+            new = new.replace(outcome=jnp.where(timer, int(game.timer_outcome), new.outcome))
             frozen = state.replace(game_loop=state.game_loop + 1)
             new = jax.tree_util.tree_map(lambda a, b: jnp.where(running, a, b), new, frozen)
             # Each unit's last turn; a slot whose unit was replaced (a new tag) starts
@@ -354,9 +430,18 @@ class Simulator:
             state = smallest_fit(self.slots_needed(state.units), sizes,
                                  functools.partial(_on_leading_slots, loops), state,
                                  checked=True)
-        state = game.on_step(state)
-        state = score.after_step(state.replace(episode_step=state.episode_step + 1))
-        return self._explore(state)
+        state = game.on_step(state.replace(episode_step=state.episode_step + 1))
+        if not two:
+            return self._explore(score.after_step(state))
+        # The other player's selection and groups lose the units that died or were
+        # replaced in their slots.
+        other = state.other
+        same = state.units.alive & (state.units.tag == tags)
+        state = state.replace(other=other.replace(
+            selected=other.selected & same, groups=jnp.where(same, other.groups, 0)))
+        for _ in range(2):  # The player, then the other.
+            state = players.mirror(self._explore(score.after_step(state)))
+        return state
 
     def slots_needed(self, units) -> jax.Array:
         """int32: the leading slots an agent step's game loops are first tried on: those
@@ -381,6 +466,50 @@ class Simulator:
         ys = h - 1 - jnp.arange(h, dtype=jnp.float32) + 0.5
         return state.replace(explored=state.explored | sight_grid(state.units, xs, ys,
                                                                     self.game.own_slots))
+
+
+def _production(units, banks, next_tag, buildable):
+    """A game loop's production for each player, the player's first (on two-player maps
+    the other's on the units with their owners swapped: `players`), with lifted
+    structures landing. One program serves both players (a scan over them).
+
+    Args:
+      units: the units.
+      banks: int32[P, 2] each player's minerals and vespene.
+      next_tag: int32 the next unit tag.
+      buildable: bool[H, W] the map's buildable cells.
+
+    Returns:
+      (units, banks, next_tag, spent int32[P, 2], created bool[N], finished bool[P, R]
+      the research finished).
+    """
+    def one_player(carry, args):
+        units, next_tag, created = carry
+        p, bank = args
+        view = players.swap_owners_if(units, p == 1)
+        economy = production.production_loop(view, bank, next_tag, buildable)
+        units = players.swap_owners_if(liftoff.land_arrivals(economy.units, buildable), p == 1)
+        return ((units, economy.next_tag, created | economy.created),
+                (economy.bank, economy.spent, economy.researched))
+
+    count = banks.shape[0]
+    carry = (units, next_tag, jnp.zeros(units.num_slots, bool))
+    if count == 1:
+        (units, next_tag, created), out = one_player(carry, (0, banks[0]))
+        out = jax.tree.map(lambda x: x[None], out)
+    else:
+        (units, next_tag, created), out = jax.lax.scan(
+            one_player, carry, (jnp.arange(count), banks))
+    new_banks, spent, finished = out
+    return units, new_banks, next_tag, spent, created, finished
+
+
+def _vital(vital, events, p: int):
+    """float32[3, 3] `score_by_vital` after a loop: player p's damage dealt and taken
+    (`LoopEvents`) added."""
+    vital = vital.reshape(-1)  # [3, 3]: life dealt, life taken.
+    return set_static(vital, {0: vital[0] + events.damage_dealt[p],
+                              3: vital[3] + events.damage_taken[p]}).reshape(3, 3)
 
 
 def _on_leading_slots(run, size: int, state: EnvState):

@@ -72,7 +72,7 @@ def test_one_marine_shot_on_a_roach_is_reduced_by_its_armour():
     after, events = run(units, 10)
     assert float(after.health[1]) == 140.0
     assert float(after.health[0]) == 45.0
-    assert float(events[0].damage_dealt) == 5.0
+    assert events[0].damage_dealt.tolist() == [5.0, 0.0]  # The player's, the enemy's.
 
 
 def test_a_roach_kills_a_marine_in_three_shots():
@@ -85,7 +85,7 @@ def test_a_roach_kills_a_marine_in_three_shots():
     for seed in (1, 2, 3):
         _, events = run(units, 70, seed)
         died_on = [i + 1 for i, e in enumerate(events) if e.died[0]]
-        taken = [float(e.damage_taken) for e in events if e.damage_taken > 0]
+        taken = [float(e.damage_taken[0]) for e in events if e.damage_taken[0] > 0]
         assert taken == [16.0, 16.0, 16.0], taken
         assert len(died_on) == 1 and 63 <= died_on[0] <= 69, died_on
 
@@ -105,7 +105,7 @@ def test_baneling_burst_hits_a_clump_of_marines_but_not_its_own_side():
     np.testing.assert_array_equal(np.asarray(after.health[:4]), [10.0, 10.0, 10.0, 45.0])
     assert not bool(after.alive[4]) and bool(events[0].died[4])
     assert bool(after.alive[5]) and float(after.health[5]) == 23.0
-    assert float(events[0].damage_taken) == 3 * 35.0
+    assert float(events[0].damage_taken[0]) == 3 * 35.0
 
 
 def test_a_baneling_killed_at_range_still_bursts():

@@ -55,7 +55,7 @@ def run(units, loops):
     for _ in range(loops):
         key, k = jax.random.split(key)
         units, events = _LOOP(units, k)
-        delivered.append(float(events.minerals))
+        delivered.append(float(events.minerals[0]))  # The player's.
     return units, np.array(delivered)
 
 

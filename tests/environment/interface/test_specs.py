@@ -105,7 +105,8 @@ def test_action_spec():
 
 @pytest.mark.parametrize("name", ["Nope", "movetobeacon", None])
 def test_unknown_map_lists_the_maps(name):
-    allowed = r"unknown map .*; the simulator has \['BuildMarines', 'CollectMineralShards'"
+    allowed = (r"unknown map .*; the simulator has the mini-games \['BuildMarines', "
+               r"'CollectMineralShards'.* and the ladder maps \['Acropolis', 'CyberForest'")
     with pytest.raises(ValueError, match=allowed):
         get_map(name)
     with pytest.raises(ValueError, match=allowed):

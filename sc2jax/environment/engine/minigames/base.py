@@ -18,7 +18,7 @@ import numpy as np
 
 from sc2jax.environment.engine.rules.dynamics import LoopEvents
 from sc2jax.environment.engine.rules.geometry import MapGeometry, squared_length
-from sc2jax.environment.engine.rules.state import EnvState, Units
+from sc2jax.environment.engine.rules.state import EnvState, Outcome, Units
 from sc2jax.environment.engine.rules.units import UNIT_DATA, UnitType
 
 Rect = tuple[float, float, float, float]
@@ -72,6 +72,9 @@ class MiniGame:
         the leading slots in use, each rounded up to one of these sizes (`Simulator`).
       spawn_room: the most units the script creates at once (a wave's reinforcements):
         room the engine leaves for them in the slots an agent step needs.
+      players: 1, or 2 for a melee map: the other player (`Owner.ENEMY`) then has its
+        own bank, research, score and view (`players.Side`).
+      timer_outcome: the `Outcome` when the map's timer runs out.
     """
 
     name: str
@@ -89,6 +92,8 @@ class MiniGame:
     team_split: int | None = None
     slot_sizes: tuple[int, ...] | None = None
     spawn_room: int = 0
+    players: int = 1
+    timer_outcome: Outcome = Outcome.VICTORY
 
     def __post_init__(self):
         sizes = self.slot_sizes
@@ -104,6 +109,16 @@ class MiniGame:
     def init(self, key) -> tuple[Units, Any, jax.Array]:
         """Returns the starting units, the script's state, and the next unit tag."""
         raise NotImplementedError
+
+    def start_cameras(self, map_state) -> np.ndarray:
+        """float32[P, 2]: each player's camera centre at the start (the script's
+        state from `init`: a melee map's start locations are drawn)."""
+        del map_state
+        return np.array([self.camera] * self.players, np.float32)
+
+    def on_start(self, state: EnvState) -> EnvState:
+        """Runs on the episode's first state, once it is made."""
+        return state
 
     def on_loop(self, state: EnvState, events: LoopEvents) -> EnvState:
         """Runs the script after a game loop; returns the state with score and outcome."""

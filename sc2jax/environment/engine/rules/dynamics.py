@@ -45,15 +45,20 @@ BLOCKED_ARRIVAL = 1.0
 STUCK_FRACTION = 0.2
 
 
+BY_PLAYER = (Owner.SELF, Owner.ENEMY)
+"""The players of `LoopEvents`' per-player sums, in order."""
+
+
 class LoopEvents(NamedTuple):
     """What happened during one loop.
 
     Attributes:
       died: bool[N] units that died this loop (they are no longer alive).
-      damage_dealt: float32 scalar, damage dealt by the player's units.
-      damage_taken: float32 scalar, damage taken by the player's units.
-      minerals: float32 scalar, minerals the player's workers deposited.
-      vespene: float32 scalar, vespene the player's workers deposited.
+      damage_dealt: float32[2], damage dealt by each player's units (`Owner.SELF`'s,
+        then `Owner.ENEMY`'s: `BY_PLAYER`).
+      damage_taken: float32[2], damage taken by each player's units.
+      minerals: float32[2], minerals each player's workers deposited.
+      vespene: float32[2], vespene each player's workers deposited.
       created: bool[N] slots where a unit was trained or a structure placed (filled in
         by `production.production_loop`; all False from `game_loop`).
       heading: float32[N, 2] the way each unit turned to this loop (its movement, or
@@ -72,7 +77,7 @@ class LoopEvents(NamedTuple):
     def none(cls, num_slots: int, died=None) -> LoopEvents:
         """A loop where nothing happened (except the deaths in `died`, bool[N])."""
         nothing = jnp.zeros(num_slots, bool)
-        zero = jnp.float32(0)
+        zero = jnp.zeros(len(BY_PLAYER), jnp.float32)
         return cls(died=nothing if died is None else jnp.asarray(died), damage_dealt=zero,
                    damage_taken=zero, minerals=zero, vespene=zero, created=nothing,
                    heading=jnp.zeros((num_slots, 2), jnp.float32))
@@ -333,8 +338,9 @@ def game_loop(units: Units, key, playable, bursts: bool = False, workers: bool =
       air: (static) whether the map has flying units: a weapon then hits only what its
         `targets` allow (a Viking in the air only air units, a Siege Tank only ground
         ones), where maps without them skip the check.
-      researched: None, or bool[R] the player's research (`research`): its upgrades,
-        stims and slows then apply, where maps without research skip them.
+      researched: None, or the players' research (bool[R], or bool[2, R] on two-player
+        maps: `research.has`): the upgrades, stims and slows then apply, where maps
+        without research skip them.
 
     Returns:
       The new units and the loop's events.
@@ -404,7 +410,8 @@ def game_loop(units: Units, key, playable, bursts: bool = False, workers: bool =
     # (without path finding, a worker would stick behind structures on its way).
     passes = gathering | (order == Order.BUILD)
     first = lambda tree: leading_slots(tree, colliders)  # noqa: E731
-    pushed = _resolve_collisions(first(new_pos), first(alive & ~passes), first(data), sized)
+    pushed = _resolve_collisions(first(new_pos), first(alive & ~passes), first(data), sized,
+                                 colliders or jitter_slots or n)
     new_pos = jnp.concatenate([pushed, new_pos[len(pushed):]])
     x0, y0, x1, y1 = playable
     new_pos = jnp.clip(new_pos, jnp.array([x0, y0]), jnp.array([x1, y1]))
@@ -477,7 +484,6 @@ def game_loop(units: Units, key, playable, bursts: bool = False, workers: bool =
     died = alive & (((data.max_health > 0) & (health <= 0)) | exploded)
     alive = alive & ~died
 
-    own = units.owner == Owner.SELF
     minerals = vespene = jnp.zeros(n, jnp.float32)
     if workers:
         gap_after = (jnp.sqrt(squared_length(new_pos - new_pos[unit_goal]))
@@ -487,12 +493,11 @@ def game_loop(units: Units, key, playable, bursts: bool = False, workers: bool =
             units, gathering & (gap_after <= harvest.REACH), depot, field_slots)
         units = pop_order(units, ended)
         alive = units.alive
+    by_player = lambda x: jnp.stack([jnp.sum(jnp.where(units.owner == p, x, 0.0))  # noqa: E731
+                                     for p in BY_PLAYER])
     events = LoopEvents(
-        died=died,
-        damage_dealt=jnp.sum(jnp.where(own, hits, 0.0)),
-        damage_taken=jnp.sum(jnp.where(own, damage, 0.0)),
-        minerals=jnp.sum(jnp.where(own, minerals, 0.0)),
-        vespene=jnp.sum(jnp.where(own, vespene, 0.0)),
+        died=died, damage_dealt=by_player(hits), damage_taken=by_player(damage),
+        minerals=by_player(minerals), vespene=by_player(vespene),
         created=jnp.zeros(n, bool), heading=heading)
 
     if researched is not None:
@@ -622,11 +627,24 @@ def colliding(data):
     return solid & ~data.flying & ~data.walkable
 
 
-# Collision pushes are summed in fixed point, in units of 2**-PUSH_BITS world units
-# (below a float32 position's resolution on a 64-unit map): integer sums do not depend
-# on the order of the additions, which XLA chooses by the array's length, so a game run
-# on its leading slots (`Simulator`) moves its units exactly as on all of them.
+# Collision pushes are summed in fixed point, in units of 2**-bits world units (20 bits:
+# below a float32 position's resolution on a 64-unit map; fewer on maps with so many
+# slots that N pushes could overflow int32, `push_bits`): integer sums do not depend on
+# the order of the additions, which XLA chooses by the array's length, so a game run on
+# its leading slots (`Simulator`) moves its units exactly as on all of them.
 PUSH_BITS = 20
+
+
+def push_bits(slots: int) -> int:
+    """The fixed-point bits of the collision pushes of a map with `slots` colliding
+    slots: `PUSH_BITS`, or fewer where `slots` pushes of both largest radii could
+    overflow int32 (18 bits of a world unit for 768 slots: finer than a float32
+    position's resolution on a 256-unit map)."""
+    most = pair_width(slots) * 2 * float(UNIT_DATA.radius.max())
+    bits = PUSH_BITS
+    while most * 2 ** bits >= 2 ** 31:
+        bits -= 1
+    return bits
 
 
 def pair_width(n: int) -> int:
@@ -642,7 +660,7 @@ def pair_width(n: int) -> int:
     return -(-n // 8) * 8 if 8 < n <= 32 else n
 
 
-def _resolve_collisions(pos, alive, data, sized: bool = False):
+def _resolve_collisions(pos, alive, data, sized: bool = False, slots: int | None = None):
     """Pushes overlapping ground units apart; immobile ones (structures, resources) don't
     move. Items that do not collide (`colliding`) are ignored.
 
@@ -657,12 +675,13 @@ def _resolve_collisions(pos, alive, data, sized: bool = False):
     differently for N <= 32 (one loop fusion) than above, and its last bit can differ;
     `hypot`'s does not, but it cuts FindAndDefeatZerglings' agent steps/s by a quarter,
     so only the maps run on several slot counts use it (docs/benchmarks.md).
+
+    `slots` (static): the map's colliding slots (N where None), whose `push_bits` the
+    sums take, so that a run on leading slots sums as one on all of them.
     """
     n = len(pos)
     width = pair_width(n)
-    most = width * 2 * float(UNIT_DATA.radius.max()) * 2 ** PUSH_BITS
-    if most >= 2 ** 31:
-        raise ValueError(f"{n} colliding slots can overflow the int32 push sums")
+    bits = push_bits(max(n, slots or n))
     pad = lambda x: jnp.pad(x, [(0, width - n)] + [(0, 0)] * (x.ndim - 1))  # noqa: E731
     collides = pad(alive & colliding(data))
     mobile = pad(data.speed > 0)
@@ -687,8 +706,8 @@ def _resolve_collisions(pos, alive, data, sized: bool = False):
     inverse = 1.0 / dist
     along = lambda d, tie: jnp.where(apart, d * inverse, tie[:, None] - tie[None, :])  # noqa: E731
 
-    fixed = lambda d, tie: (along(d, tie) * push * 2 ** PUSH_BITS).astype(jnp.int32)  # noqa: E731
+    fixed = lambda d, tie: (along(d, tie) * push * 2 ** bits).astype(jnp.int32)  # noqa: E731
     totals = jax.lax.reduce((fixed(dx, tie_x), fixed(dy, tie_y)), (np.int32(0), np.int32(0)),
                             lambda a, b: (a[0] + b[0], a[1] + b[1]), (1,))
     totals = [total[:n] for total in totals]
-    return pos + jnp.stack(totals, axis=-1).astype(jnp.float32) * 2 ** -PUSH_BITS
+    return pos + jnp.stack(totals, axis=-1).astype(jnp.float32) * 2 ** -bits

@@ -131,14 +131,24 @@ def done(researched, research) -> jax.Array:
     return jnp.asarray(researched)[int(research)]
 
 
+def has(units: Units, researched, research) -> jax.Array:
+    """bool[N]: the units whose owner has `research`, from `researched`: bool[R] the
+    player's (`Owner.SELF`), or bool[2, R] both players' (the player's, then the other's,
+    `Owner.ENEMY`, on two-player maps)."""
+    researched = jnp.asarray(researched)
+    if researched.ndim == 1:
+        return (units.owner == Owner.SELF) & researched[int(research)]
+    return (((units.owner == Owner.SELF) & researched[0, int(research)])
+            | ((units.owner == Owner.ENEMY) & researched[1, int(research)]))
+
+
 def unit_rows(data, units: Units, researched):
-    """The per-slot unit stats `data` (UnitData rows of `units.type`) with the player's
-    research (bool[R] `researched`) and the units' stims and slows applied: damage,
+    """The per-slot unit stats `data` (UnitData rows of `units.type`) with the players'
+    research (`researched`, as in `has`) and the units' stims and slows applied: damage,
     bonus and armour of the upgraded infantry, and the speed and cooldown of stimmed
     and slowed units."""
-    own = units.owner == Owner.SELF
-    weapons = own & done(researched, Research.INFANTRY_WEAPONS_1)
-    armored = own & done(researched, Research.INFANTRY_ARMOR_1)
+    weapons = has(units, researched, Research.INFANTRY_WEAPONS_1)
+    armored = has(units, researched, Research.INFANTRY_ARMOR_1)
     infantry = jnp.isin(units.type, jnp.asarray(INFANTRY, jnp.int32))
     step = jnp.asarray(WEAPON_STEP)[units.type]
     stimmed = units.stim > 0
@@ -153,8 +163,9 @@ def unit_rows(data, units: Units, researched):
 
 
 def max_health(units: Units, researched):
-    """float32[N]: each unit's most health, with the player's Combat Shield."""
-    shield = (units.owner == Owner.SELF) & done(researched, Research.COMBAT_SHIELD)
+    """float32[N]: each unit's most health, with its owner's Combat Shield
+    (`researched` as in `has`)."""
+    shield = has(units, researched, Research.COMBAT_SHIELD)
     return (jnp.asarray(UNIT_DATA.max_health)[units.type]
             + jnp.where(shield, jnp.asarray(SHIELD_HEALTH)[units.type], 0.0))
 
@@ -176,19 +187,19 @@ def stim(units: Units, researched):
 
 def timers(units: Units, researched, hits, target):
     """The units' stims and slows after a game loop: a loop shorter, and the targets of
-    the player's Marauders that hit this loop slowed anew (with Concussive Shells).
+    the Marauders that hit this loop slowed anew where their owner has Concussive Shells.
 
     Args:
       units: the units at the loop's start.
-      researched: bool[R] the player's research.
+      researched: the players' research, as in `has`.
       hits: bool[N] the units whose attack hit this loop.
       target: int32[N] the slot each unit attacked (read where `hits`).
 
     Returns:
       (stim float32[N], slow float32[N]).
     """
-    concussive = (hits & (units.type == UnitType.MARAUDER) & (units.owner == Owner.SELF)
-                  & done(researched, Research.CONCUSSIVE_SHELLS))
+    concussive = (hits & (units.type == UnitType.MARAUDER)
+                  & has(units, researched, Research.CONCUSSIVE_SHELLS))
     slowed = targeted_by(jnp.where(concussive, target, NO_TARGET), units.num_slots).any(axis=0)
     return (jnp.maximum(units.stim - 1.0, 0.0),
             jnp.where(slowed, SLOW_LOOPS, jnp.maximum(units.slow - 1.0, 0.0)))
@@ -196,12 +207,11 @@ def timers(units: Units, researched, hits, target):
 
 def shield_health(units: Units, researched, finished, created):
     """The units after a game loop's production, with Combat Shield's health added to
-    the player's Marines when it finishes (bool[R] `finished` this loop), and to the
-    ones created this loop (bool[N] `created`) once it is done (bool[R] `researched`,
-    the research after the loop)."""
-    own = units.alive & (units.owner == Owner.SELF)
-    gains = own & jnp.where(created, done(researched, Research.COMBAT_SHIELD),
-                            done(finished, Research.COMBAT_SHIELD))
+    the Marines of a player whose Combat Shield finished this loop (`finished`), and to
+    the ones created this loop (bool[N] `created`) where it is done (`researched`, after
+    the loop); both as in `has`."""
+    gains = units.alive & jnp.where(created, has(units, researched, Research.COMBAT_SHIELD),
+                                    has(units, finished, Research.COMBAT_SHIELD))
     return units.replace(
         health=units.health + jnp.where(gains, jnp.asarray(SHIELD_HEALTH)[units.type], 0.0))
 

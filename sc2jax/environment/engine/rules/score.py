@@ -67,30 +67,37 @@ def after_loop(state: EnvState, old_units: Units, died, minerals, vespene, spent
       state: the state after the loop (units and resources updated).
       old_units: the units before the loop (to value the enemies that died).
       died: bool[N] units that died in the loop.
-      minerals, vespene: float32 resources deposited in the loop.
-      spent: int32[2] minerals and vespene spent in the loop.
+      minerals, vespene: float32 resources the player's workers deposited in the loop.
+      spent: int32[2] minerals and vespene the player spent in the loop.
 
     Returns:
       The state with `score_cumulative` and `collection_rate` updated.
     """
-    units = state.units
+    cumulative, rate = tally(state.units, old_units, state.score_cumulative,
+                             state.collection_rate, died, minerals, vespene, spent)
+    return state.replace(score_cumulative=cumulative, collection_rate=rate)
+
+
+def tally(units: Units, old_units: Units, cumulative, rate, died, minerals, vespene, spent):
+    """The player's `score_cumulative` (int32[13]) and `collection_rate` (float32[2])
+    after a loop, from their values before it and the loop's units and events (as
+    `after_loop`'s arguments). Returns (cumulative, rate)."""
     enemy_died = died & (old_units.owner == Owner.ENEMY)
     killed = jnp.sum(jnp.where(enemy_died, jnp.asarray(_VALUE)[old_units.type], 0))
     own = units.alive & (units.owner == Owner.SELF)
     idle_workers = jnp.sum(units.idle_workers)
     idle_producers = jnp.sum(units.complete & own & trains(units) & (units.queue[:, 0] == 0))
     income = jnp.stack([minerals, vespene]) * LOOPS_PER_RATE_MINUTE
-    rate = state.collection_rate + (income - state.collection_rate) * RATE_SMOOTHING
-    old = state.score_cumulative
+    rate = rate + (income - rate) * RATE_SMOOTHING
     added = {C.killed_value_units: killed, C.collected_minerals: minerals.astype(jnp.int32),
              C.collected_vespene: vespene.astype(jnp.int32), C.spent_minerals: spent[0],
              C.spent_vespene: spent[1],
              C.idle_worker_time: idle_workers, C.idle_production_time: idle_producers}
-    cumulative = set_static(old, {
-        **{int(i): old[i] + v for i, v in added.items()},
+    cumulative = set_static(cumulative, {
+        **{int(i): cumulative[i] + v for i, v in added.items()},
         int(C.collection_rate_minerals): jnp.round(rate[0]).astype(jnp.int32),
         int(C.collection_rate_vespene): jnp.round(rate[1]).astype(jnp.int32)})
-    return state.replace(score_cumulative=cumulative, collection_rate=rate)
+    return cumulative, rate
 
 
 def after_step(state: EnvState) -> EnvState:

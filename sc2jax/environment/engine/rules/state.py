@@ -226,6 +226,8 @@ class EnvState:
       episode_step: int32 scalar, agent steps since the episode started.
       map_state: the map script's own state (a pytree).
       key: the RNG key for everything random in the game.
+      other: None on one-player maps; on two-player maps the other player's own fields
+        (`players.Side`: its bank, research, score, camera, selection...).
     """
 
     units: Units
@@ -246,6 +248,7 @@ class EnvState:
     episode_step: jax.Array
     map_state: object
     key: jax.Array
+    other: object = None
 
 
 def _new_units(units: Units, k: int, unit_type, owner, positions, tags, selected) -> dict:
