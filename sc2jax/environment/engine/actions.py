@@ -11,6 +11,7 @@ card. (The dm_env shell can instead raise before stepping, as PySC2's
 from __future__ import annotations
 
 import enum
+from typing import NamedTuple
 
 import jax
 import jax.numpy as jnp
@@ -123,7 +124,10 @@ IS_MINIMAP = np.array([f.function_type == FunctionType.cmd_minimap for f in FUNC
 
 
 class _Context:
-    """Values the branches share, computed once per action."""
+    """Values the branches share, computed once per action: a feature action's
+    (`_Context(state, action, renderer)`: its screen or minimap point, and the unit drawn
+    under a screen click), or a raw command's (`_Context.raw`: its world point and
+    target unit)."""
 
     def __init__(self, state: EnvState, action: DenseAction, renderer: Renderer):
         units = state.units
@@ -134,47 +138,99 @@ class _Context:
         sx, sy = camera.size
         px, py = self.pixel_pos[:, 0], self.pixel_pos[:, 1]
         self.on_screen = self.shown & (px >= 0) & (px < sx) & (py >= 0) & (py < sy)
-        self.picked = pick_unit(units, self.on_screen, self.pixel_pos, self.pixel_radius,
-                                action.screen)
+        picked = pick_unit(units, self.on_screen, self.pixel_pos, self.pixel_radius,
+                           action.screen)
         screen_point = camera.pixel_to_world(state.camera, action.screen)
-        minimap_point = renderer.minimap.pixel_to_world(action.minimap)
-        # Units stay inside the playable area, so a target point outside it stands for
-        # the nearest point inside (where the unit stops and its order ends).
+        self.minimap_point = renderer.minimap.pixel_to_world(action.minimap)
+        minimap = jnp.asarray(IS_MINIMAP)[action.function]
+        self._aim(units, renderer, jnp.where(minimap, self.minimap_point, screen_point),
+                  jnp.where(minimap, NO_TARGET, picked))  # Units are targeted on the screen.
+
+    @classmethod
+    def raw(cls, state: EnvState, point, target, renderer: Renderer) -> _Context:
+        """A raw command's context: float32[2] world `point`, int32 `target` slot (or
+        -1). The camera moves to the point; nothing is picked by the cursor."""
+        self = cls.__new__(cls)
+        self.shown = self.on_screen = jnp.zeros(state.units.num_slots, bool)
+        self.pixel_pos = jnp.zeros_like(state.units.pos)
+        self.pixel_radius = jnp.zeros(state.units.num_slots, jnp.float32)
+        self.minimap_point = point
+        self._aim(state.units, renderer, point, target)
+        return self
+
+    def _aim(self, units, renderer: Renderer, point, picked):
+        """The target point, kept in the playable area (units stay inside it, so a point
+        outside stands for the nearest point inside, where the unit stops and its order
+        ends), and what the targeted unit `picked` (int32 slot or -1) is to the player:
+        an enemy to attack, a mineral field or the player's Refinery to gather from,
+        the player's unfinished structure to resume."""
         x0, y0, x1, y1 = renderer.geometry.playable
-        self.point = jnp.clip(
-            jnp.where(jnp.asarray(IS_MINIMAP)[action.function], minimap_point, screen_point),
-            jnp.array([x0, y0], jnp.float32), jnp.array([x1, y1], jnp.float32))
-        # Units can be targeted on the screen only.
-        self.enemy_under = jnp.where(
-            jnp.asarray(IS_MINIMAP)[action.function], False,
-            (self.picked >= 0) & (units.owner[jnp.maximum(self.picked, 0)] == Owner.ENEMY))
-        self.minimap_point = minimap_point
-        # A mineral field or the player's Refinery under a screen click, for gathering;
-        # the player's unfinished structure, for resuming its construction.
-        safe = jnp.maximum(self.picked, 0)
-        on_screen_click = ~jnp.asarray(IS_MINIMAP)[action.function] & (self.picked >= 0)
+        self.point = jnp.clip(point, jnp.array([x0, y0], jnp.float32),
+                              jnp.array([x1, y1], jnp.float32))
+        self.picked = picked
+        safe = jnp.maximum(picked, 0)
+        clicked = picked >= 0
         picked_type = units.type[safe]
         own = units.owner[safe] == Owner.SELF
-        self.resource_under = on_screen_click & (units.contents[safe] > 0) & (
+        self.enemy_under = clicked & (units.owner[safe] == Owner.ENEMY)
+        self.resource_under = clicked & (units.contents[safe] > 0) & (
             (picked_type == UnitType.MINERAL_FIELD) | ((picked_type == UnitType.REFINERY) & own
                                                        & units.complete[safe]))
-        self.unfinished_under = on_screen_click & own & units.alive[safe] & ~units.complete[safe]
-        self.unit_under = jnp.where(on_screen_click, self.picked, NO_TARGET)
+        self.unfinished_under = clicked & own & units.alive[safe] & ~units.complete[safe]
+        self.unit_under = jnp.where(clicked, picked, NO_TARGET)
+
+
+def apply_raw(state: EnvState, command: RawCommand, renderer: Renderer,
+              card_table=CARD_TABLE, economy: bool = False) -> EnvState:
+    """Applies one raw command: its units are selected (as PySC2's raw actions select
+    them), then its function runs as a feature action would with that selection, at
+    the command's world point or on its target unit, the camera moved to the point.
+    Availability, results, `last_action` and `action_result` are the feature action's
+    (`apply_action`)."""
+    units = state.units
+    mine = units.alive & (units.owner == Owner.SELF)
+    state = state.replace(units=units.replace(selected=command.units & mine))
+    action = DenseAction(*([command.function] + [jnp.int32(0)] * 13))._replace(
+        queued=command.queued, screen=jnp.zeros(2, jnp.int32),
+        minimap=jnp.zeros(2, jnp.int32), screen2=jnp.zeros(2, jnp.int32))
+    ctx = _Context.raw(state, command.point, command.target, renderer)
+    return apply_action(state, action, renderer, card_table, economy, ctx)
+
+
+class RawCommand(NamedTuple):
+    """A command to units picked directly, with a world point or target unit (the raw
+    interface's, and the built-in AI's).
+
+    Attributes:
+      function: int32 the feature function id of the command (`FUNCTIONS`).
+      units: bool[N] the player's units commanded.
+      point: float32[2] the world point targeted (and where the camera moves).
+      target: int32 the unit slot targeted, or -1.
+      queued: int32 0 (now) or 1 (queued).
+    """
+
+    function: jax.Array
+    units: jax.Array
+    point: jax.Array
+    target: jax.Array
+    queued: jax.Array
 
 
 def apply_action(state: EnvState, action: DenseAction, renderer: Renderer,
-                 card_table=CARD_TABLE, economy: bool = False) -> EnvState:
+                 card_table=CARD_TABLE, economy: bool = False,
+                 context: _Context | None = None) -> EnvState:
     """Applies one (unbatched) dense action and records `last_action`/`action_result`.
 
     Each kind's branch returns (units, camera, result, bank, next_tag), where result
     is 0 or the `ActionResult` of its failure. `economy` (static) compiles the branches
     of production (building, training, rallies, cancels, idle workers); maps without it
-    cannot make these functions available.
+    cannot make these functions available. `context`: a raw command's (`apply_raw`),
+    in place of the action's screen and minimap points.
     """
     function = jnp.clip(action.function, 0, NUM_FUNCTIONS - 1)
     available = available_actions(state.units, card_table,
                                   state.researched if economy else None)[function]
-    ctx = _Context(state, action, renderer)
+    ctx = _Context(state, action, renderer) if context is None else context
     units = state.units
     a = action
 

@@ -20,7 +20,8 @@ import jax.numpy as jnp
 import numpy as np
 from flax import struct
 
-from sc2jax.environment.engine.actions import apply_action
+from sc2jax.environment.engine import computer
+from sc2jax.environment.engine.actions import apply_action, apply_raw
 from sc2jax.environment.engine.availability import CARD_TABLE
 from sc2jax.environment.engine.minigames import get_map, melee
 from sc2jax.environment.engine.observation import observe
@@ -84,6 +85,9 @@ class Simulator:
         the game loops and render the observation on the leading unit slots in use (the
         default); False runs them on every slot, with the same results, slower (for
         checks).
+      computer: on a melee map, 0 (the other player does nothing, unless given actions:
+        `step_both`) or the `Difficulty` the simulator's built-in AI plays the other
+        player at (`computer.LEVELS`).
       num_slots: None, or on a melee map its unit slots in place of `melee.NUM_SLOTS`
         (768: two players at 200 supply): fewer cap the units the game holds (a unit
         trained without a free slot waits in its queue, a structure is not placed) and
@@ -99,11 +103,17 @@ class Simulator:
     allow_cheating_layers: bool = False
     use_slot_sizes: bool = True
     num_slots: int | None = None
+    computer: int = 0
 
     def __post_init__(self):
         game = get_map(self.map_name)
         if self.num_slots is not None:
             game = melee.with_slots(game, self.num_slots)
+        if self.computer:
+            if game.players != 2:
+                raise ValueError(f"computer plays the other player of a melee map; "
+                                 f"{self.map_name} has one player")
+            object.__setattr__(self, "computer_level", computer.level(self.computer))
         if not isinstance(self.fmt, specs.ObservationFormat):
             raise ValueError(f"fmt must be an ObservationFormat, got {type(self.fmt).__name__}")
         if isinstance(self.step_mul, bool) or not isinstance(self.step_mul, int) or not (
@@ -254,7 +264,17 @@ class Simulator:
         state = self.act(state.replace(key=step_key), action)
         if other_action is not None:
             state = players.mirror(self.act(players.mirror(state), other_action))
+        elif self.computer:
+            state = players.mirror(self._computer_acts(players.mirror(state)))
         return self._advance(state, loops)
+
+    def _computer_acts(self, seen: EnvState) -> EnvState:
+        """The built-in AI's command applied to the game as it sees it."""
+        start, other_start = self.game.start_cameras(seen.map_state)
+        command = computer.command(seen, self.computer_level, other_start, start,
+                                   self.renderer.buildable)
+        return apply_raw(seen, command, self.renderer, self.card_table,
+                         economy=self.game.has_production)
 
     def episode_over(self, state: EnvState, params: EnvParams):
         """bool: the episode has ended (a LAST timestep was, or will be, emitted)."""

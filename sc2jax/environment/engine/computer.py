@@ -1,0 +1,295 @@
+"""The simulator's built-in AI: a scripted Terran player for melee maps, at a difficulty.
+
+`command(state, level, home, enemy_home, buildable)` is a pure, jittable policy: from
+the game as the computer sees it (`players.mirror` of the agent's state) it returns one
+`actions.RawCommand` an agent step, the first of these jobs that applies:
+
+1. **retreat**: an attack whose army fell below `Level.retreat` of a wave goes home;
+2. **defence**: idle army units attack enemies within `DEFENCE_RADIUS` of home;
+3. **mining**: idle SCVs gather from the mineral field nearest home;
+4. **supply**: a Supply Depot when the free supply is below `Level.supply_margin`, or
+   there is none (Barracks need one), and none is being built;
+5. **workers**: an SCV from an idle Command Center, up to `Level.workers`;
+6. **attack**: once `Level.first_attack` game loops have passed and the idle army
+   numbers a wave (`Level.wave`), it attack-moves on the enemy structure nearest it
+   (the computer knows where structures stand, as the game's AI knows the start
+   locations), or the enemy's start location when it knows none;
+7. **Barracks** up to `Level.barracks`, once a Supply Depot stands;
+8. **gas**: Refineries up to `Level.refineries`, and 3 SCVs to each;
+9. **tech** (`Level.tech`): a Tech Lab on the first Barracks, and Stimpack there;
+10. **army**: a Marine (a Marauder at a Tech Lab) at each idle Barracks;
+11. **scouting** (`Level.scout_at`): one SCV walks to the enemy's start location.
+
+Structures go on the first site, nearest home first, of a fixed ring around it away
+from the mineral line, where the structure fits (`production.placement`); a Barracks'
+site also leaves its add-on room. A level acts on every `Level.period`-th agent step
+(its reaction time); the stronger levels train more workers, build more Barracks, tech,
+attack later with more and retreat. Expansions are not built yet (docs/full_game.md).
+"""
+
+from __future__ import annotations
+
+from typing import NamedTuple
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+
+from sc2jax.environment.engine.actions import RawCommand
+from sc2jax.environment.engine.rules import production, research
+from sc2jax.environment.engine.rules.geometry import squared_length
+from sc2jax.environment.engine.rules.state import NO_TARGET, EnvState, Order, Owner
+from sc2jax.environment.engine.rules.units import UNIT_DATA, UnitType
+from sc2jax.environment.interface.functions import FUNCTIONS
+from sc2jax.environment.interface.players import Difficulty
+
+F = FUNCTIONS
+DEFENCE_RADIUS = 25.0
+"""World units from home within which enemies draw the computer's idle army."""
+GAS_WORKERS = 3
+
+
+class Level(NamedTuple):
+    """What a difficulty builds and how it fights.
+
+    Attributes:
+      workers: SCVs to train up to.
+      barracks: Barracks to build.
+      refineries: Refineries to build (each gets `GAS_WORKERS` SCVs).
+      tech: a Tech Lab on a Barracks, Marauders there, and Stimpack.
+      supply_margin: free supply under which a Supply Depot is started.
+      wave: idle army units that launch an attack.
+      first_attack: game loops before the first attack.
+      retreat: the share of a wave under which an attacking army goes home (0: never).
+      period: the computer acts on every period-th agent step.
+      scout_at: the game loop an SCV scouts at (0: never).
+    """
+
+    workers: int
+    barracks: int
+    refineries: int
+    tech: bool
+    supply_margin: int
+    wave: int
+    first_attack: int
+    retreat: float
+    period: int
+    scout_at: int
+
+
+LOOPS_PER_MINUTE = 22.4 * 60
+LEVELS = {
+    Difficulty.very_easy: Level(workers=13, barracks=1, refineries=0, tech=False,
+                                supply_margin=2, wave=6, first_attack=int(7 * LOOPS_PER_MINUTE),
+                                retreat=0.0, period=4, scout_at=0),
+    Difficulty.easy: Level(workers=16, barracks=2, refineries=0, tech=False, supply_margin=3,
+                           wave=8, first_attack=int(6 * LOOPS_PER_MINUTE), retreat=0.0,
+                           period=3, scout_at=int(2 * LOOPS_PER_MINUTE)),
+    Difficulty.medium: Level(workers=19, barracks=3, refineries=1, tech=False,
+                             supply_margin=4, wave=12, first_attack=int(6 * LOOPS_PER_MINUTE),
+                             retreat=0.3, period=2, scout_at=int(2 * LOOPS_PER_MINUTE)),
+    Difficulty.hard: Level(workers=22, barracks=4, refineries=2, tech=True, supply_margin=6,
+                           wave=16, first_attack=int(7 * LOOPS_PER_MINUTE), retreat=0.4,
+                           period=1, scout_at=int(int(1.5 * LOOPS_PER_MINUTE))),
+}
+"""The levels the simulator's computer plays (`Difficulty`'s first, third and fifth are
+VeryEasy, Medium and Hard)."""
+
+
+def level(difficulty) -> Level:
+    """The `Level` of a `Difficulty`.
+
+    Raises:
+      ValueError: for a difficulty the simulator's computer does not play.
+    """
+    try:
+        return LEVELS[Difficulty(difficulty)]
+    except (ValueError, KeyError):
+        names = [d.name for d in LEVELS]
+        raise ValueError(f"the simulator's computer plays difficulties {names}, got "
+                         f"{difficulty!r}") from None
+
+
+def _ring(radius_min: float, radius_max: float, spacing: float) -> np.ndarray:
+    """float32[K, 2]: grid offsets whose length is in [radius_min, radius_max], nearest
+    first."""
+    span = np.arange(-radius_max, radius_max + spacing, spacing)
+    grid = np.stack(np.meshgrid(span, span), -1).reshape(-1, 2)
+    length = np.linalg.norm(grid, axis=-1)
+    grid = grid[(length >= radius_min) & (length <= radius_max)]
+    return grid[np.argsort(np.linalg.norm(grid, axis=-1), kind="stable")].astype(np.float32)
+
+
+SITES = _ring(6.0, 16.0, 2.0)
+"""Candidate offsets from home of the structures the computer builds."""
+
+
+def _site(state: EnvState, buildable, unit_type, home, away, addon: bool = False):
+    """(bool any fits, float32[2] the first fitting site): of `SITES` around `home` on
+    the side away from the mineral line (`away`: float32[2] unit direction)."""
+    units = state.units
+    points = home + jnp.asarray(SITES)
+    ahead = jnp.asarray(SITES) @ away >= 0.0
+
+    def fits(point):
+        site = production.snap(unit_type, point)
+        ok = production.placement(units, buildable, unit_type, site) == 0
+        if addon:
+            lab = jnp.int32(UnitType.BARRACKS_TECH_LAB)
+            ok = ok & (production.placement(
+                units, buildable, lab,
+                site + jnp.asarray(production.ADDON_OFFSET, jnp.float32)) == 0)
+        return ok, site
+
+    ok, sites = jax.vmap(fits)(points)
+    ok = ok & ahead
+    first = jnp.argmax(ok)
+    return ok.any(), sites[first]
+
+
+def _nearest(mask, pos, point):
+    """int32: the slot where bool[N] `mask` holds nearest `point` (float32[2])."""
+    return jnp.argmin(jnp.where(mask, squared_length(pos - point), jnp.inf)).astype(jnp.int32)
+
+
+def command(state: EnvState, lvl: Level, home, enemy_home, buildable) -> RawCommand:
+    """The computer's command this agent step (no_op on the steps between its
+    `Level.period`).
+
+    Args:
+      state: the game as the computer sees it (it is `Owner.SELF`).
+      lvl: its `Level`.
+      home: float32[2] its start location.
+      enemy_home: float32[2] the enemy's start location.
+      buildable: bool[H, W] the map's buildable cells.
+    """
+    units = state.units
+    n = units.num_slots
+    types = units.type
+    mine = units.alive & (units.owner == Owner.SELF)
+    complete = units.complete
+    idle = units.orders[:, 0] == Order.NONE
+    scv = mine & (types == UnitType.SCV) & complete
+    army = mine & jnp.asarray(UNIT_DATA.is_army)[types] & complete
+    enemy = units.alive & (units.owner == Owner.ENEMY)
+    kind_count = lambda t: jnp.sum(  # noqa: E731 # standing or ordered
+        (mine & (types == t)) | (scv & jnp.any((units.orders == Order.BUILD)
+                                               & (units.order_type == t), axis=1)))
+    fields = units.alive & (types == UnitType.MINERAL_FIELD) & (units.contents > 0)
+    field = _nearest(fields, units.pos, home)
+    home_fields = fields & (squared_length(units.pos - home) < 12.0 ** 2)
+    centre = jnp.sum(jnp.where(home_fields[:, None], units.pos, 0.0), 0) / jnp.maximum(
+        jnp.sum(home_fields), 1)
+    towards = centre - home
+    away = -towards / jnp.maximum(jnp.sqrt(squared_length(towards)), 1e-3)
+    minerals, vespene = state.minerals, state.vespene
+    free_supply = production.food_cap(units) - production.food_used(units)
+    gathered = units.order_unit[:, 0]
+    safe_gathered = jnp.clip(gathered, 0, n - 1)
+    mining = (scv & (units.orders[:, 0] == Order.GATHER) & (units.cargo == 0)
+              & (types[safe_gathered] == UnitType.MINERAL_FIELD))
+
+    def one(slot):
+        return jnp.arange(n) == slot
+
+    jobs = []  # (applies, function, units, point, target)
+
+    # 1. Retreat.
+    attacking = army & (units.orders[:, 0] == Order.ATTACK_MOVE)
+    retreat = (lvl.retreat > 0) & attacking.any() & (
+        jnp.sum(army) < lvl.retreat * lvl.wave)
+    jobs.append((retreat, F.Move_screen.id, army, home, NO_TARGET))
+    # 2. Defence.
+    near = enemy & (squared_length(units.pos - home) < DEFENCE_RADIUS ** 2)
+    intruder = _nearest(near, units.pos, home)
+    jobs.append((near.any() & (army & idle).any(), F.Attack_screen.id, army & idle,
+                 units.pos[intruder], NO_TARGET))
+    # 3. Idle SCVs mine.
+    jobs.append((fields.any() & (scv & idle).any(), F.Harvest_Gather_screen.id, scv & idle,
+                 units.pos[field], field))
+    # 4. Supply.
+    depot_building = jnp.any(mine & (types == UnitType.SUPPLY_DEPOT) & ~complete) | jnp.any(
+        scv & jnp.any((units.orders == Order.BUILD)
+                      & (units.order_type == UnitType.SUPPLY_DEPOT), axis=1))
+    depot_fits, depot_site = _site(state, buildable, UnitType.SUPPLY_DEPOT, home, away)
+    builder = lambda site: one(_nearest(mining, units.pos, site))  # noqa: E731
+    any_depot = jnp.any(mine & jnp.isin(types, jnp.asarray(
+        [UnitType.SUPPLY_DEPOT, UnitType.SUPPLY_DEPOT_LOWERED], jnp.int32)))
+    short_supply = (free_supply < lvl.supply_margin) | ~any_depot  # Barracks need one.
+    jobs.append((short_supply & (production.food_cap(units) < 200) & ~depot_building
+                 & (minerals >= 100) & depot_fits & mining.any(),
+                 F.Build_SupplyDepot_screen.id, builder(depot_site), depot_site, NO_TARGET))
+    # 5. Workers.
+    town = mine & complete & jnp.isin(types, jnp.asarray(
+        [UnitType.COMMAND_CENTER, UnitType.ORBITAL_COMMAND], jnp.int32))
+    idle_town = town & (units.queue[:, 0] == 0)
+    workers = jnp.sum(mine & (types == UnitType.SCV)) + jnp.sum(
+        jnp.where(town[:, None], units.queue == UnitType.SCV, False))
+    jobs.append((idle_town.any() & (workers < lvl.workers) & (minerals >= 50)
+                 & (free_supply >= 1), F.Train_SCV_quick.id, idle_town, home, NO_TARGET))
+    # 6. Attack.
+    enemy_structures = enemy & jnp.asarray((UNIT_DATA.food == 0)
+                                           & (UNIT_DATA.max_health > 0))[types]
+    centroid = jnp.sum(jnp.where(army[:, None], units.pos, 0.0), 0) / jnp.maximum(
+        jnp.sum(army), 1)
+    target = jnp.where(enemy_structures.any(),
+                       units.pos[_nearest(enemy_structures, units.pos, centroid)], enemy_home)
+    wave = (state.game_loop >= lvl.first_attack) & (jnp.sum(army & idle) >= lvl.wave)
+    jobs.append((wave | (attacking.any() & (army & idle).any()), F.Attack_screen.id,
+                 army & idle, target, NO_TARGET))
+    # 7. Barracks.
+    has_depot = jnp.any(mine & complete & jnp.isin(types, jnp.asarray(
+        [UnitType.SUPPLY_DEPOT, UnitType.SUPPLY_DEPOT_LOWERED], jnp.int32)))
+    rax_fits, rax_site = _site(state, buildable, UnitType.BARRACKS, home, away, addon=True)
+    jobs.append((has_depot & (kind_count(UnitType.BARRACKS) < lvl.barracks)
+                 & (minerals >= 150) & rax_fits & mining.any(), F.Build_Barracks_screen.id,
+                 builder(rax_site), rax_site, NO_TARGET))
+    # 8. Gas.
+    barracks = mine & (types == UnitType.BARRACKS)
+    geysers = units.alive & (types == UnitType.VESPENE_GEYSER)
+    geyser = _nearest(geysers, units.pos, home)
+    near_geyser = geysers.any() & (squared_length(units.pos[geyser] - home) < 15.0 ** 2)
+    jobs.append((barracks.any() & (kind_count(UnitType.REFINERY) < lvl.refineries)
+                 & near_geyser & (minerals >= 75) & mining.any(), F.Build_Refinery_screen.id,
+                 builder(units.pos[geyser]), units.pos[geyser], geyser))
+    refineries = mine & complete & (types == UnitType.REFINERY)
+    gas_of = jnp.where(units.orders[:, 0] == Order.GATHER, gathered, units.home)
+    on_gas = jnp.sum(scv[:, None] & (gas_of[:, None] == jnp.arange(n)), axis=0)
+    short = refineries & (on_gas < GAS_WORKERS)
+    refinery = _nearest(short, units.pos, home)
+    jobs.append((short.any() & mining.any(), F.Harvest_Gather_screen.id,
+                 builder(units.pos[refinery]), units.pos[refinery], refinery))
+    # 9. Tech.
+    kind, addon_done = production.addon_kinds(units)
+    bare = barracks & complete & (kind == 0) & (units.queue[:, 0] == 0)
+    labs = jnp.sum(barracks & (kind == production.AddOn.TECH_LAB))
+    jobs.append((lvl.tech & (labs == 0) & bare.any() & (minerals >= 50) & (vespene >= 25),
+                 F.Build_TechLab_quick.id, one(jnp.argmax(bare)), home, NO_TARGET))
+    lab = mine & complete & (types == UnitType.BARRACKS_TECH_LAB) & (units.queue[:, 0] == 0)
+    stimming = production.pending(units, state.researched)[research.Research.STIMPACK]
+    jobs.append((lvl.tech & lab.any() & ~stimming & (minerals >= 100) & (vespene >= 100),
+                 F.Research_Stimpack_quick.id, lab, home, NO_TARGET))
+    # 10. Army.
+    ready = barracks & complete & (units.queue[:, 0] == 0) & ((kind == 0) | addon_done)
+    marauder = ready & (kind == production.AddOn.TECH_LAB)
+    jobs.append((marauder.any() & (minerals >= 100) & (vespene >= 25) & (free_supply >= 2),
+                 F.Train_Marauder_quick.id, one(jnp.argmax(marauder)), home, NO_TARGET))
+    jobs.append((ready.any() & (minerals >= 50) & (free_supply >= 1), F.Train_Marine_quick.id,
+                 one(jnp.argmax(ready)), home, NO_TARGET))
+    # 11. Scouting.
+    scout_now = (lvl.scout_at > 0) & (state.game_loop >= lvl.scout_at) & (
+        state.game_loop < lvl.scout_at + 8 * lvl.period)
+    jobs.append((scout_now & mining.any(), F.Move_screen.id, builder(enemy_home), enemy_home,
+                 NO_TARGET))
+
+    applies = jnp.stack([j[0] for j in jobs])
+    acting = (state.episode_step % lvl.period) == 0
+    pick = jnp.where(acting & applies.any(), jnp.argmax(applies), len(jobs))
+    column = lambda i, default: jnp.stack(  # noqa: E731
+        [jnp.asarray(j[i]) for j in jobs] + [jnp.asarray(default)])[pick]
+    return RawCommand(
+        function=column(1, F.no_op.id).astype(jnp.int32),
+        units=column(2, jnp.zeros(n, bool)),
+        point=column(3, home).astype(jnp.float32),
+        target=column(4, NO_TARGET).astype(jnp.int32),
+        queued=jnp.int32(0))
