@@ -1,9 +1,12 @@
-"""The 13 action-argument types of PySC2 v4, declared once as data.
+"""The 13 action-argument types of PySC2 v4, and the 4 of its raw actions, declared once
+as data.
 
 An argument is either a point (`screen`, `minimap`, `screen2`: two sizes, x then y,
 set by the resolution) or a single integer in `[0, size)`, some of them with named
 enum values (`queued`: "now" or "queued", ...). Ids, names, order and sizes follow
-PySC2's `actions.TYPES`.
+PySC2's `actions.TYPES`. The raw actions' (`RAW_TYPES`, PySC2's `actions.RAW_TYPES`)
+are a world point (`world`), `queued`, and unit tags: `unit_tags` (1 to 512 of them)
+and `target_unit_tag` (one).
 """
 
 from __future__ import annotations
@@ -121,6 +124,26 @@ TYPES = _make_types((0, 0), (0, 0))
 """The argument types with unresolved point sizes, as PySC2's `actions.TYPES`."""
 
 NUM_TYPES = len(TYPES)
+
+
+class RawArguments(NamedTuple):
+    """The raw actions' 4 argument types, in PySC2's order (the field index is the id)."""
+
+    world: ArgumentType
+    queued: ArgumentType
+    unit_tags: ArgumentType
+    target_unit_tag: ArgumentType
+
+
+MAX_RAW_UNIT_TAGS = 512
+"""The most unit tags a raw command takes (PySC2's `RAW_TYPES.unit_tags`)."""
+RAW_TYPES = RawArguments(
+    world=ArgumentType(0, "world", (0, 0)),
+    queued=ArgumentType(1, "queued", (2,), Queued),
+    unit_tags=ArgumentType(2, "unit_tags", (MAX_RAW_UNIT_TAGS,)),
+    target_unit_tag=ArgumentType(3, "target_unit_tag", (1,)))
+"""The raw argument types: `world` a point in the raw resolution (unresolved here);
+`unit_tags` and `target_unit_tag` take unit tags, the size being how many."""
 POINT_TYPES = tuple(t for t in TYPES if t.is_point)
 SCALAR_TYPES = tuple(t for t in TYPES if not t.is_point)
 

@@ -1,8 +1,9 @@
-"""PySC2 v4's 573 action functions, built from the table in `data/pysc2_functions.tsv`.
+"""PySC2 v4's 573 action functions, built from the table in `data/pysc2_functions.tsv`,
+and its 564 raw functions (`RAW_FUNCTIONS`, from `data/pysc2_raw_functions.tsv`).
 
 `FUNCTIONS[331]`, `FUNCTIONS.Move_screen` and `FUNCTIONS["Move_screen"]` are the same
 `Function`. Calling a function builds a `FunctionCall` the way PySC2 users write it:
-`FUNCTIONS.Move_screen("now", (12, 30))`.
+`FUNCTIONS.Move_screen("now", (12, 30))`, `RAW_FUNCTIONS.Attack_pt("now", [tag], (x, y))`.
 """
 
 from __future__ import annotations
@@ -14,7 +15,12 @@ from typing import Any, NamedTuple
 
 import numpy as np
 
-from sc2jax.environment.interface.arguments import TYPES, Arguments, ArgumentType
+from sc2jax.environment.interface.arguments import (
+    RAW_TYPES,
+    TYPES,
+    Arguments,
+    ArgumentType,
+)
 
 
 class FunctionType(enum.IntEnum):
@@ -36,10 +42,18 @@ class FunctionType(enum.IntEnum):
     cmd_screen = 13
     cmd_minimap = 14
     autocast = 15
+    raw_no_op = 16
+    raw_move_camera = 17
+    raw_cmd = 18
+    raw_cmd_pt = 19
+    raw_cmd_unit = 20
+    raw_autocast = 21
 
 
 UI_FUNCTION_TYPES = frozenset(FunctionType(i) for i in range(12))
 """Function types that act on the user interface rather than send an ability."""
+RAW_FUNCTION_TYPES = frozenset(FunctionType(i) for i in range(16, 22))
+"""The raw functions' types."""
 
 
 class Function(NamedTuple):
@@ -67,6 +81,8 @@ class Function(NamedTuple):
         Raises:
           ValueError: if the number of arguments or an enum value is wrong.
         """
+        if self.function_type in RAW_FUNCTION_TYPES:
+            return validate_raw_call(FunctionCall(self.id, list(args)))
         return FunctionCall.init_with_validation(self, args)
 
     def __str__(self) -> str:
@@ -127,15 +143,15 @@ def _as_index(key: object) -> int | None:
         return None
 
 
-def _load_functions() -> Functions:
+def _load_functions(file: str = "pysc2_functions.tsv", types=TYPES) -> Functions:
     data = importlib.resources.files("sc2jax.environment.interface") / "data"
-    text = (data / "pysc2_functions.tsv").read_text(encoding="utf-8")
+    text = (data / file).read_text(encoding="utf-8")
     lines = [line for line in text.splitlines() if line and not line.startswith("#")]
     header = lines[0].split("\t")
     rows = []
     for line in lines[1:]:
         row = dict(zip(header, line.split("\t")))
-        args = tuple(getattr(TYPES, a) for a in row["args"].split(",") if a)
+        args = tuple(getattr(types, a) for a in row["args"].split(",") if a)
         rows.append(Function(
             id=int(row["id"]),
             name=row["name"],
@@ -149,6 +165,9 @@ def _load_functions() -> Functions:
 
 FUNCTIONS = _load_functions()
 NUM_FUNCTIONS = len(FUNCTIONS)
+RAW_FUNCTIONS = _load_functions("pysc2_raw_functions.tsv", RAW_TYPES)
+"""PySC2 v4's raw functions (`actions.RAW_FUNCTIONS`): ids, names, types, arguments
+(`RAW_TYPES`) and abilities as its table."""
 
 FUNCTION_ARGS_MASK = np.zeros((NUM_FUNCTIONS, len(TYPES)), dtype=bool)
 """[num_functions, num_types]: True where a function takes an argument type."""
@@ -265,6 +284,43 @@ def validate_function_call(call: FunctionCall, types: Arguments) -> FunctionCall
             f"({', '.join(a.name for a in func.args) or 'none'}), got {n}: {arguments!r}")
     return FunctionCall(func.id, [_convert_argument(func, types[t.id], v)
                                   for t, v in zip(func.args, arguments)])
+
+
+def validate_raw_call(call: FunctionCall) -> FunctionCall:
+    """Checks a raw call (`RAW_FUNCTIONS`) and returns it normalised: `queued` by name
+    or value, `unit_tags` a tag or a list of 1 to `MAX_RAW_UNIT_TAGS` tags,
+    `target_unit_tag` one tag, `world` an (x, y) point of numbers >= 0 (floored).
+
+    Raises:
+      ValueError: for an unknown raw function, a wrong number of arguments, or a bad
+        argument, naming the function, the argument, the value and what is allowed.
+    """
+    try:
+        func = RAW_FUNCTIONS[call.function.id if isinstance(call.function, Function)
+                             else call.function]
+    except KeyError as e:
+        raise ValueError(f"unknown raw function {call.function!r}; ids are "
+                         f"0..{len(RAW_FUNCTIONS) - 1} or a name such as 'Attack_pt'") from e
+    arguments = call.arguments
+    if not isinstance(arguments, (list, tuple)) or len(arguments) != len(func.args):
+        raise ValueError(f"{func.name} takes {len(func.args)} arguments "
+                         f"({', '.join(a.name for a in func.args) or 'none'}), got "
+                         f"{arguments!r}")
+    out = []
+    for arg_type, value in zip(func.args, arguments):
+        if arg_type.name in ("unit_tags", "target_unit_tag"):
+            tags = _as_sequence(value)
+            tags = [value] if tags is None else tags
+            indices = [_as_index(t) for t in tags]
+            most = arg_type.sizes[0]
+            if not 1 <= len(tags) <= most or any(i is None or i < 0 for i in indices):
+                raise ValueError(f"{func.name} argument {arg_type.name!r} = {value!r} must "
+                                 f"be {'a unit tag' if most == 1 else f'1 to {most} unit tags'}"
+                                 " (ints >= 0)")
+            out.append(indices)
+        else:
+            out.append(_convert_argument(func, arg_type, value))
+    return FunctionCall(func.id, out)
 
 
 def _lookup(function: Function | int | str) -> Function:
