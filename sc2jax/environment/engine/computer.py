@@ -90,7 +90,7 @@ LEVELS = {
                              retreat=0.3, period=2, scout_at=int(2 * LOOPS_PER_MINUTE)),
     Difficulty.hard: Level(workers=22, barracks=4, refineries=2, tech=True, supply_margin=6,
                            wave=16, first_attack=int(7 * LOOPS_PER_MINUTE), retreat=0.4,
-                           period=1, scout_at=int(int(1.5 * LOOPS_PER_MINUTE))),
+                           period=1, scout_at=int(1.5 * LOOPS_PER_MINUTE)),
 }
 """The levels the simulator's computer plays (`Difficulty`'s first, third and fifth are
 VeryEasy, Medium and Hard)."""

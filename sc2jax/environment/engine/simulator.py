@@ -466,8 +466,9 @@ class Simulator:
     def slots_needed(self, units) -> jax.Array:
         """int32: the leading slots an agent step's game loops are first tried on: those
         in use, and room for the units the step can create: on maps with production one
-        slot per unit that can create one (`production.creators`; each makes at most
-        one in `production.MIN_BUILD_LOOPS` loops), and the script's `spawn_room`.
+        slot per unit of either player that can create one (`production.creators`;
+        each makes at most one in `production.MIN_BUILD_LOOPS` loops), and the
+        script's `spawn_room`.
 
         The room is a guess that holds for most steps (a wave can follow another
         within a step; a long step can train several units), not a bound: a run whose
@@ -475,6 +476,9 @@ class Simulator:
         need = slots_in_use(units.alive) + self.game.spawn_room
         if self.game.has_production:
             need = need + jnp.sum(production.creators(units), dtype=jnp.int32)
+        if self.game.players == 2:
+            need = need + jnp.sum(production.creators(players.swap_owners(units)),
+                                  dtype=jnp.int32)
         return need
 
     def _explore(self, state: EnvState) -> EnvState:
