@@ -36,7 +36,7 @@ from sc2jax.environment.engine.rules.geometry import clamp_camera
 from sc2jax.environment.engine.rules.state import NO_TARGET, EnvState, Order, Owner
 from sc2jax.environment.engine.rules.units import UNIT_DATA, UnitType, game_name
 from sc2jax.environment.engine.xla.fusion import set_static
-from sc2jax.environment.interface.dense import DenseAction
+from sc2jax.environment.interface.dense import DenseAction, zeros
 from sc2jax.environment.interface.functions import FUNCTIONS, NUM_FUNCTIONS, FunctionType
 from sc2jax.environment.interface.observation_tables import ScoreCumulative
 from sc2jax.environment.interface.protocol_enums import ActionResult
@@ -190,9 +190,8 @@ def apply_raw(state: EnvState, command: RawCommand, renderer: Renderer,
     units = state.units
     mine = units.alive & (units.owner == Owner.SELF)
     state = state.replace(units=units.replace(selected=command.units & mine))
-    action = DenseAction(*([command.function] + [jnp.int32(0)] * 13))._replace(
-        queued=command.queued, screen=jnp.zeros(2, jnp.int32),
-        minimap=jnp.zeros(2, jnp.int32), screen2=jnp.zeros(2, jnp.int32))
+    action = jax.tree.map(jnp.asarray, zeros())._replace(function=command.function,
+                                                        queued=command.queued)
     ctx = _Context.raw(state, command.point, command.target, renderer)
     return apply_action(state, action, renderer, card_table, economy, ctx)
 

@@ -172,9 +172,9 @@ def command(state: EnvState, lvl: Level, home, enemy_home, buildable) -> RawComm
     scv = mine & (types == UnitType.SCV) & complete
     army = mine & jnp.asarray(UNIT_DATA.is_army)[types] & complete
     enemy = units.alive & (units.owner == Owner.ENEMY)
-    kind_count = lambda t: jnp.sum(  # noqa: E731 # standing or ordered
-        (mine & (types == t)) | (scv & jnp.any((units.orders == Order.BUILD)
-                                               & (units.order_type == t), axis=1)))
+    ordered = lambda t: scv & jnp.any((units.orders == Order.BUILD)  # noqa: E731
+                                      & (units.order_type == t), axis=1)
+    kind_count = lambda t: jnp.sum((mine & (types == t)) | ordered(t))  # noqa: E731
     fields = units.alive & (types == UnitType.MINERAL_FIELD) & (units.contents > 0)
     field = _nearest(fields, units.pos, home)
     home_fields = fields & (squared_length(units.pos - home) < 12.0 ** 2)
@@ -209,12 +209,11 @@ def command(state: EnvState, lvl: Level, home, enemy_home, buildable) -> RawComm
                  units.pos[field], field))
     # 4. Supply.
     depot_building = jnp.any(mine & (types == UnitType.SUPPLY_DEPOT) & ~complete) | jnp.any(
-        scv & jnp.any((units.orders == Order.BUILD)
-                      & (units.order_type == UnitType.SUPPLY_DEPOT), axis=1))
+        ordered(UnitType.SUPPLY_DEPOT))
     depot_fits, depot_site = _site(state, buildable, UnitType.SUPPLY_DEPOT, home, away)
     builder = lambda site: one(_nearest(mining, units.pos, site))  # noqa: E731
-    any_depot = jnp.any(mine & jnp.isin(types, jnp.asarray(
-        [UnitType.SUPPLY_DEPOT, UnitType.SUPPLY_DEPOT_LOWERED], jnp.int32)))
+    any_depot = jnp.any(mine & (jnp.asarray(production.COUNTS_AS)[types]
+                                == UnitType.SUPPLY_DEPOT))
     short_supply = (free_supply < lvl.supply_margin) | ~any_depot  # Barracks need one.
     jobs.append((short_supply & (production.food_cap(units) < 200) & ~depot_building
                  & (minerals >= 100) & depot_fits & mining.any(),
@@ -238,8 +237,7 @@ def command(state: EnvState, lvl: Level, home, enemy_home, buildable) -> RawComm
     jobs.append((wave | (attacking.any() & (army & idle).any()), F.Attack_screen.id,
                  army & idle, target, NO_TARGET))
     # 7. Barracks.
-    has_depot = jnp.any(mine & complete & jnp.isin(types, jnp.asarray(
-        [UnitType.SUPPLY_DEPOT, UnitType.SUPPLY_DEPOT_LOWERED], jnp.int32)))
+    has_depot = production.has_structure(units, UnitType.SUPPLY_DEPOT)
     rax_fits, rax_site = _site(state, buildable, UnitType.BARRACKS, home, away, addon=True)
     jobs.append((has_depot & (kind_count(UnitType.BARRACKS) < lvl.barracks)
                  & (minerals >= 150) & rax_fits & mining.any(), F.Build_Barracks_screen.id,

@@ -358,12 +358,10 @@ class Simulator:
             last_action=jnp.int32(-1), action_result=jnp.int32(0),
             outcome=jnp.int32(Outcome.RUNNING), episode_step=jnp.int32(0),
             map_state=map_state, key=state_key)
-        if self.game.players == 1:
-            return self.game.on_start(self._explore(state))
-        state = state.replace(other=players.side_of(state, player_id=2).replace(
-            camera=cameras[1]))
-        state = players.mirror(self._explore(players.mirror(self._explore(state))))
-        return self.game.on_start(state)
+        if self.game.players == 2:
+            state = state.replace(other=players.side_of(state, player_id=2).replace(
+                camera=cameras[1]))
+        return self.game.on_start(_for_each_player(state, self._explore))
 
     def _advance(self, state: EnvState, count=None) -> EnvState:
         """Runs the step's game loops (`advance`), the actions applied."""
@@ -377,8 +375,8 @@ class Simulator:
             running = state.outcome == Outcome.RUNNING
             key, loop_key = threefry.split(state.key)
             other = state.other
-            researched = (jnp.stack([state.researched, other.researched]) if two
-                          else state.researched)
+            sides = (state, other) if two else (state,)
+            researched = jnp.stack([side.researched for side in sides])  # [P, R]
             units, events = game_loop(state.units, loop_key, game.geometry.playable,
                                       bursts=game.has_bursts, workers=game.has_workers,
                                       combat=game.has_enemies,
@@ -389,7 +387,6 @@ class Simulator:
                                       sized=game.slot_sizes is not None, face=False,
                                       air=game.has_air,
                                       researched=researched if game.has_production else None)
-            sides = (state, other) if two else (state,)
             income = jnp.stack([events.minerals, events.vespene], axis=-1).astype(jnp.int32)
             banks = jnp.stack([jnp.stack([side.minerals, side.vespene]) for side in sides]
                               ) + income[:len(sides)]
@@ -399,14 +396,13 @@ class Simulator:
                 events = events._replace(died=events.died | expired)
                 units, banks, next_tag, spent, created, finished = _production(
                     units, banks, next_tag, buildable)
-                researched = researched | (finished if two else finished[0])
-                units = research.shield_health(units, researched,
-                                               finished if two else finished[0], created)
+                researched = researched | finished
+                units = research.shield_health(units, researched, finished, created)
                 events = events._replace(created=created)
             new = state.replace(units=units, key=key, game_loop=state.game_loop + 1,
                                 score_by_vital=_vital(state.score_by_vital, events, 0),
                                 minerals=banks[0, 0], vespene=banks[0, 1],
-                                researched=researched[0] if two else researched,
+                                researched=researched[0],
                                 next_tag=next_tag)
             new = score.after_loop(new, state.units, events.died, events.minerals[0],
                                    events.vespene[0], spent[0])
@@ -451,17 +447,13 @@ class Simulator:
                                  functools.partial(_on_leading_slots, loops), state,
                                  checked=True)
         state = game.on_step(state.replace(episode_step=state.episode_step + 1))
-        if not two:
-            return self._explore(score.after_step(state))
-        # The other player's selection and groups lose the units that died or were
-        # replaced in their slots.
-        other = state.other
-        same = state.units.alive & (state.units.tag == tags)
-        state = state.replace(other=other.replace(
-            selected=other.selected & same, groups=jnp.where(same, other.groups, 0)))
-        for _ in range(2):  # The player, then the other.
-            state = players.mirror(self._explore(score.after_step(state)))
-        return state
+        if two:  # The other player's selection and groups lose the units that died or
+            # were replaced in their slots.
+            other = state.other
+            same = state.units.alive & (state.units.tag == tags)
+            state = state.replace(other=other.replace(
+                selected=other.selected & same, groups=jnp.where(same, other.groups, 0)))
+        return _for_each_player(state, lambda s: self._explore(score.after_step(s)))
 
     def slots_needed(self, units) -> jax.Array:
         """int32: the leading slots an agent step's game loops are first tried on: those
@@ -490,6 +482,13 @@ class Simulator:
         ys = h - 1 - jnp.arange(h, dtype=jnp.float32) + 0.5
         return state.replace(explored=state.explored | sight_grid(state.units, xs, ys,
                                                                     self.game.own_slots))
+
+
+def _for_each_player(state: EnvState, update) -> EnvState:
+    """`update(state)` for the player, then on two-player maps for the other player on
+    the game as it sees it (`players.mirror`)."""
+    state = update(state)
+    return state if state.other is None else players.mirror(update(players.mirror(state)))
 
 
 def _production(units, banks, next_tag, buildable):

@@ -11,15 +11,13 @@ observations) serve either player. One-player maps have `other=None`.
 
 from __future__ import annotations
 
+import dataclasses
+
 import jax
 import jax.numpy as jnp
 from flax import struct
 
 from sc2jax.environment.engine.rules.state import EnvState, Outcome, Owner, Units
-
-SIDE_FIELDS = ("camera", "score", "score_cumulative", "score_by_vital", "minerals", "vespene",
-               "researched", "collection_rate", "explored", "last_action", "action_result")
-"""The `EnvState` fields each player has its own of."""
 
 
 @struct.dataclass
@@ -48,6 +46,12 @@ class Side:
     selected: jax.Array
     groups: jax.Array
     player_id: jax.Array
+
+
+SIDE_FIELDS = tuple(f.name for f in dataclasses.fields(Side)
+                    if f.name not in ("selected", "groups", "player_id"))
+"""The `EnvState` fields each player has its own of."""
+assert set(SIDE_FIELDS) <= {f.name for f in dataclasses.fields(EnvState)}
 
 
 def side_of(state: EnvState, player_id) -> Side:

@@ -23,6 +23,7 @@ A queue holds items: unit types below `FIRST`, and research r as `FIRST + r`
 from __future__ import annotations
 
 import enum
+import functools
 
 import jax
 import jax.numpy as jnp
@@ -133,13 +134,12 @@ def done(researched, research) -> jax.Array:
 
 def has(units: Units, researched, research) -> jax.Array:
     """bool[N]: the units whose owner has `research`, from `researched`: bool[R] the
-    player's (`Owner.SELF`), or bool[2, R] both players' (the player's, then the other's,
-    `Owner.ENEMY`, on two-player maps)."""
-    researched = jnp.asarray(researched)
-    if researched.ndim == 1:
-        return (units.owner == Owner.SELF) & researched[int(research)]
-    return (((units.owner == Owner.SELF) & researched[0, int(research)])
-            | ((units.owner == Owner.ENEMY) & researched[1, int(research)]))
+    player's (`Owner.SELF`), or bool[P, R] each player's (the player's, then on
+    two-player maps the other's, `Owner.ENEMY`)."""
+    rows = jnp.atleast_2d(jnp.asarray(researched))
+    owners = (Owner.SELF, Owner.ENEMY)[:rows.shape[0]]
+    return functools.reduce(jnp.logical_or, [
+        (units.owner == owner) & rows[p, int(research)] for p, owner in enumerate(owners)])
 
 
 def unit_rows(data, units: Units, researched):
