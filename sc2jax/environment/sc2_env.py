@@ -30,6 +30,7 @@ from sc2jax.environment.interface import specs
 from sc2jax.environment.interface.dense import DenseAction, check_dense_action, to_dense
 from sc2jax.environment.interface.functions import FUNCTIONS, FunctionCall, validate_function_call
 from sc2jax.environment.interface.layout import named, to_pysc2_layout
+from sc2jax.environment.interface.raw import RawAction, check_raw_action, to_raw_dense
 
 
 class _Base(dm_env.Environment):
@@ -51,12 +52,41 @@ class _Base(dm_env.Environment):
         self._reset_fn, self._step_fn = compiled(sim, batched, devices)
         self._state = None
         self._available = None
+        self._raw = sim.fmt.action_space == "raw"
+        self._raw_units = None  # The last padded `raw_units`, which raw calls name rows of.
 
-    def action_spec(self) -> DenseAction:
+    def action_spec(self) -> DenseAction | RawAction:
         return self.simulator.action_spec()
 
+    def _raw_action(self, action, batch_shape) -> RawAction:
+        """A raw action (a `RawAction`, or `FunctionCall`s of `RAW_FUNCTIONS` naming the
+        rows or tags of the last `raw_units`) as checked numpy arrays."""
+        grid, rows = self.simulator.renderer.raw_grid.size, self.simulator.fmt.max_units
+        if isinstance(action, RawAction):
+            return check_raw_action(action, batch_shape, rows, grid)
+        calls = [action] if not batch_shape else action
+        if not (isinstance(calls, (list, tuple)) and all(isinstance(c, FunctionCall)
+                                                        for c in calls)):
+            raise TypeError(f"a raw environment's step takes a RawAction or "
+                            f"{'a FunctionCall' if not batch_shape else 'FunctionCalls'} of "
+                            f"RAW_FUNCTIONS, got {type(action).__name__}")
+        if batch_shape and len(calls) != batch_shape[0]:
+            raise ValueError(f"expected {batch_shape[0]} FunctionCalls, got {len(calls)}")
+        units = np.reshape(self._raw_units, (-1,) + np.shape(self._raw_units)[-2:])
+        dense = [to_raw_dense(c, u, grid) for c, u in zip(calls, units)]
+        if not batch_shape:
+            return dense[0]
+        return RawAction(*(np.stack(field) for field in zip(*dense)))
+
+    def _keep(self, timestep):
+        """Keeps what the next step checks its action against; returns the timestep."""
+        self._available = timestep.observation["available_actions_mask"]
+        self._raw_units = timestep.observation.get("raw_units")
+        self._last_step_type = np.asarray(timestep.step_type)
+        return timestep
+
     def _check_available(self, function_ids: np.ndarray):
-        if not self._ensure_available:
+        if not self._ensure_available or self._raw:  # PySC2 checks no raw function.
             return
         if self._available is None:
             raise RuntimeError("call reset() before step()")
@@ -102,7 +132,9 @@ class SC2Env(_Base):
         self._state, timestep = self._step_fn(self._state, dense, self._params)
         return self._convert(timestep)
 
-    def _to_dense(self, action) -> DenseAction:
+    def _to_dense(self, action) -> DenseAction | RawAction:
+        if self._raw:
+            return self._raw_action(action, ())
         if isinstance(action, FunctionCall):
             return to_dense(validate_function_call(action, self._types), self._types)
         if isinstance(action, DenseAction):
@@ -114,14 +146,12 @@ class SC2Env(_Base):
                         f"{type(action).__name__}")
 
     def _convert(self, timestep) -> dm_env.TimeStep:
-        timestep = jax.device_get(timestep)
-        self._available = timestep.observation["available_actions_mask"]
-        self._last_step_type = timestep.step_type
+        timestep = self._keep(jax.device_get(timestep))
         return dm_env.TimeStep(
             step_type=dm_env.StepType(int(timestep.step_type)),
             reward=float(timestep.reward), discount=float(timestep.discount),
-            observation=named(to_pysc2_layout(timestep.observation, self.simulator.map_name),
-                              self.simulator.fmt))
+            observation=named(to_pysc2_layout(timestep.observation, self.simulator.map_name,
+                                              self._raw), self.simulator.fmt))
 
 
 class BatchedSC2Env(_Base):
@@ -172,7 +202,9 @@ class BatchedSC2Env(_Base):
         ids = np.where(self._last_step_type == dm_env.StepType.LAST, 0, function_ids)
         self._check_available(ids)
 
-    def _to_dense(self, action: Any) -> DenseAction:
+    def _to_dense(self, action: Any) -> DenseAction | RawAction:
+        if self._raw:
+            return self._raw_action(action, (self.num_envs,))
         if isinstance(action, DenseAction):
             check_dense_action(action, (self.num_envs,))
             dense = DenseAction(*(np.asarray(a, np.int32) for a in action))
@@ -187,10 +219,7 @@ class BatchedSC2Env(_Base):
                         f"{type(action).__name__}")
 
     def _convert(self, timestep) -> dm_env.TimeStep:
-        timestep = jax.device_get(timestep)
-        self._available = timestep.observation["available_actions_mask"]
-        self._last_step_type = np.asarray(timestep.step_type)
-        return timestep
+        return self._keep(jax.device_get(timestep))
 
 
 def _devices_for(num_devices: int, num_envs: int) -> tuple[jax.Device, ...]:
@@ -236,11 +265,14 @@ def make(map_name: str, screen_size: specs.Size = 64, minimap_size: specs.Size =
          ensure_available_actions: bool = True, game_steps_per_episode: int = 0,
          allow_cheating_layers: bool = False, backend: str = "simulator",
          sc2path: str | None = None, bot: Any = None,
-         num_devices: int = 1, use_slot_sizes: bool = True) -> dm_env.Environment:
+         num_devices: int = 1, use_slot_sizes: bool = True, action_space: str = "features",
+         raw_resolution: specs.Size | None = None,
+         num_slots: int | None = None) -> dm_env.Environment:
     """Creates an environment by map name: the simulator's, or the real game's.
 
     Args:
-      map_name: a mini-game, e.g. "MoveToBeacon".
+      map_name: a mini-game, e.g. "MoveToBeacon", or a ladder map of the simulator's
+        melee game (`map_names.LADDER_MAPS`, e.g. "Acropolis").
       screen_size, minimap_size: resolutions, an int or (x, y), each in 16..256.
       step_mul: game loops per agent step.
       num_envs: None for one `SC2Env`; N for a `BatchedSC2Env` of N environments.
@@ -257,7 +289,9 @@ def make(map_name: str, screen_size: specs.Size = 64, minimap_size: specs.Size =
         `game_env.GameEnv` with the same observations and actions. The game may be any
         map it knows (a mini-game name, or a path under its Maps folder).
       sc2path: the game's install folder (backend "sc2").
-      bot: a `game_env.Bot` opponent (backend "sc2"; e.g. for the full game). On maps
+      bot: a `game_env.Bot` opponent on a ladder map. With the simulator, a Terran
+        computer of build "random" at a difficulty it plays (`computer.LEVELS`:
+        very_easy, easy, medium or hard); None leaves the other player idle. On maps
         other than the mini-games the reward defaults to the outcome (score_index -1)
         and episodes to PySC2's 30 game minutes (`LADDER_GAME_STEPS`), a tie.
       num_devices: split a `BatchedSC2Env`'s environments over this many local devices
@@ -265,6 +299,14 @@ def make(map_name: str, screen_size: specs.Size = 64, minimap_size: specs.Size =
       use_slot_sizes: the simulator's (`Simulator`): True (the default) runs the economy
         and wave maps on the unit slots in use; False on every slot, the same game, slower
         to run but quicker to compile (one copy of the game loop, not one per slot size).
+      action_space: "features" (`FUNCTIONS`) or "raw" (`RAW_FUNCTIONS`, PySC2's
+        `ActionSpace.RAW`: needs use_raw_units; steps take `FunctionCall`s of raw
+        functions, whose unit tags may be rows of the last `raw_units`, or a
+        `raw.RawAction`). The simulator only, for now.
+      raw_resolution: the raw grid of `raw_units` and of the raw actions' `world` point
+        (None: the map's size, PySC2's default).
+      num_slots: on a ladder map of the simulator, its unit slots (`Simulator.num_slots`;
+        None: enough for two players at 200 supply).
 
     Returns:
       An `SC2Env` (num_envs None), a `BatchedSC2Env`, or for backend "sc2" a
@@ -282,27 +324,57 @@ def make(map_name: str, screen_size: specs.Size = 64, minimap_size: specs.Size =
                          f"environments; it needs num_envs and backend='simulator' (got "
                          f"num_envs={num_envs!r}, backend={backend!r})")
     if backend == "sc2":
+        if action_space != "features" or raw_resolution is not None:
+            raise ValueError(f"backend 'sc2' takes the feature action space and the "
+                             f"default raw resolution for now; got action_space="
+                             f"{action_space!r}, raw_resolution={raw_resolution!r}")
         return _make_game(map_name, screen_size, minimap_size, step_mul, num_envs, seed,
                           screen_features, minimap_features, use_feature_units, use_raw_units,
                           max_units, score_index, score_multiplier, discount,
                           ensure_available_actions, game_steps_per_episode, sc2path, bot)
     if backend != "simulator":
         raise ValueError(f"backend {backend!r} is not allowed; expected 'simulator' or 'sc2'")
-    if bot is not None or sc2path is not None:
-        raise ValueError("bot and sc2path apply to backend='sc2' only")
+    if sc2path is not None:
+        raise ValueError("sc2path applies to backend='sc2' only")
     check_map(map_name)
+    computer = _simulator_computer(bot, map_name)
+    if map_name not in MAPS and not score_index:
+        score_index = -1  # PySC2's default on ladder maps: the outcome.
     use_compilation_cache()
     fmt = specs.ObservationFormat(
         screen_size=screen_size, minimap_size=minimap_size,
         screen_features=None if screen_features is None else tuple(screen_features),
         minimap_features=None if minimap_features is None else tuple(minimap_features),
-        use_feature_units=use_feature_units, use_raw_units=use_raw_units, max_units=max_units)
+        use_feature_units=use_feature_units, use_raw_units=use_raw_units, max_units=max_units,
+        raw_resolution=raw_resolution, action_space=action_space)
     sim = simulator(map_name, fmt, step_mul, score_index, float(score_multiplier),
-                    float(discount), allow_cheating_layers, use_slot_sizes)
+                    float(discount), allow_cheating_layers, use_slot_sizes, num_slots, computer)
     if num_envs is None:
         return SC2Env(sim, seed, ensure_available_actions, game_steps_per_episode)
     return BatchedSC2Env(sim, num_envs, seed, ensure_available_actions, game_steps_per_episode,
                          num_devices)
+
+
+def _simulator_computer(bot, map_name: str) -> int:
+    """The `Difficulty` of the simulator's computer a `game_env.Bot` asks for (0: none).
+
+    Raises:
+      ValueError: for a bot on a mini-game, or one the simulator does not play.
+    """
+    if bot is None:
+        return 0
+    from sc2jax.environment.sc2api.game_env import DIFFICULTIES  # It imports this module.
+
+    if map_name in MAPS:
+        raise ValueError(f"bot plays the other player of a ladder map; {map_name} is a "
+                         "mini-game")
+    race, build = getattr(bot, "race", None), getattr(bot, "build", None)
+    difficulty = getattr(bot, "difficulty", None)
+    difficulty = DIFFICULTIES.get(difficulty, difficulty)
+    if race != "terran" or build != "random" or not isinstance(difficulty, int):
+        raise ValueError(f"the simulator's computer is a Terran of build 'random' at a "
+                         f"difficulty; got bot={bot!r}")
+    return difficulty
 
 
 def _make_game(map_name, screen_size, minimap_size, step_mul, num_envs, seed, screen_features,

@@ -48,9 +48,10 @@ def _split_over(fn, devices):
 @functools.cache
 def simulator(map_name: str, fmt: specs.ObservationFormat, step_mul: int, score_index: int,
               score_multiplier: float, discount: float,
-              allow_cheating_layers: bool, use_slot_sizes: bool = True) -> Simulator:
+              allow_cheating_layers: bool, use_slot_sizes: bool = True,
+              num_slots: int | None = None, computer: int = 0) -> Simulator:
     """One `Simulator` per configuration, so environments share compiled code."""
     return Simulator(map_name=map_name, fmt=fmt, step_mul=step_mul, score_index=score_index,
                      score_multiplier=score_multiplier, discount=discount,
                      allow_cheating_layers=allow_cheating_layers,
-                     use_slot_sizes=use_slot_sizes)
+                     use_slot_sizes=use_slot_sizes, num_slots=num_slots, computer=computer)

@@ -21,7 +21,7 @@ from sc2jax.environment.engine.rules.units import UNIT_DATA, UnitType, game_name
 from sc2jax.environment.engine.ui import NUM_GROUPS, selection_order
 from sc2jax.environment.interface import observation_tables as tables
 from sc2jax.environment.interface import specs
-from sc2jax.environment.interface.feature_units import minimap_unit_rows, screen_unit_rows
+from sc2jax.environment.interface.feature_units import raw_unit_rows, screen_unit_rows
 from sc2jax.environment.interface.functions import FUNCTIONS, SPECIFIC_ABILITY
 
 BASE_RADIUS = 10.0
@@ -113,12 +113,25 @@ def _player(state: EnvState):
     ]).astype(jnp.int32)
 
 
+def _row_positions(mask, length, order=None):
+    """int32[N]: the row of each item where bool[N] mask, in order (`order`: int32[N]
+    given rows), of a list of `length` rows; `length` for the items left out."""
+    position = jnp.cumsum(mask.astype(jnp.int32)) - 1 if order is None else order
+    return jnp.where(mask & (position < length), position, length)
+
+
 def _pad_rows(rows, mask, length, order=None):
     """Packs rows where mask into the first rows of a [length, ...] zero array."""
-    position = jnp.cumsum(mask.astype(jnp.int32)) - 1 if order is None else order
-    position = jnp.where(mask & (position < length), position, length)  # length = dropped
     out = jnp.zeros((length + 1,) + rows.shape[1:], rows.dtype)
-    return out.at[position].set(rows)[:length]
+    return out.at[_row_positions(mask, length, order)].set(rows)[:length]
+
+
+def rows_to_slots(shown, rows: int):
+    """int32[rows]: the unit slot of each row of a padded unit list (`raw_units`) of the
+    units where bool[N] `shown`, -1 past the last (the inverse of its packing)."""
+    slots = jnp.full((rows + 1,), -1, jnp.int32)
+    return slots.at[_row_positions(shown, rows)].set(
+        jnp.arange(shown.shape[0], dtype=jnp.int32))[:rows]
 
 
 def _control_groups(units: Units):
@@ -245,8 +258,9 @@ def observe(state: EnvState, renderer: Renderer, card_table=CARD_TABLE,
     single = jnp.where(count == 1, vectors[jnp.argmax(selected)], 0)[None]
     multi = jnp.where(count > 1, _pad_rows(vectors, selected, fmt.max_units,
                                            selection_order(units)), 0)
+    # PySC2 reports no last actions to raw agents.
     last_actions = jnp.full((specs.MAX_LAST_ACTIONS,), -1, jnp.int32).at[0].set(
-        state.last_action)
+        -1 if fmt.action_space == "raw" else state.last_action)
     action_result = jnp.zeros((specs.MAX_LAST_ACTIONS,), jnp.int32).at[0].set(
         state.action_result)
     score_cumulative = state.score_cumulative.at[0].set(state.score)
@@ -286,6 +300,6 @@ def observe(state: EnvState, renderer: Renderer, card_table=CARD_TABLE,
             screen_unit_rows(api, renderer.camera, state.camera),
             api["shown"] & (api["is_on_screen"] > 0), fmt.max_units)
     if fmt.use_raw_units:
-        obs["raw_units"] = _pad_rows(minimap_unit_rows(api, renderer.minimap), api["shown"],
+        obs["raw_units"] = _pad_rows(raw_unit_rows(api, renderer.raw_grid), api["shown"],
                                      fmt.max_units)
     return obs

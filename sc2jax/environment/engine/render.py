@@ -20,7 +20,7 @@ from sc2jax.environment.engine.rules.geometry import MapGeometry, cell_lookup, s
 from sc2jax.environment.engine.rules.state import EnvState, Owner, Units, leading_slots
 from sc2jax.environment.engine.rules.units import UNIT_DATA, Attribute, UnitType
 from sc2jax.environment.engine.xla.fusion import materialize
-from sc2jax.environment.interface.camera import Camera, Minimap
+from sc2jax.environment.interface.camera import Camera, Minimap, RawGrid
 from sc2jax.environment.interface.feature_units import ratio_255
 from sc2jax.environment.interface.features import DENSITY, PlayerRelative, Visibility
 from sc2jax.environment.interface.specs import ObservationFormat
@@ -290,6 +290,7 @@ class Renderer:
         self.cheat_layers = cheat_layers
         self.camera = Camera(fmt.screen_size)
         self.minimap = Minimap(fmt.minimap_size, geometry.size)
+        self.raw_grid = RawGrid(fmt.raw_resolution or geometry.size, geometry.size)
         # A map layer that is zero over the whole map (`height_map` on the flat maps) is
         # zero in every view, however the camera moves: a zero layer too.
         self.zero_layers = frozenset(zero_layers) | {

@@ -25,6 +25,7 @@ from sc2jax.environment.engine.actions import apply_action, apply_raw
 from sc2jax.environment.engine.availability import CARD_TABLE
 from sc2jax.environment.engine.minigames import get_map, melee
 from sc2jax.environment.engine.observation import observe
+from sc2jax.environment.engine.raw_actions import apply_raw_action
 from sc2jax.environment.engine.render import Renderer, sight_grid
 from sc2jax.environment.engine.rules import (
     calldown,
@@ -47,6 +48,7 @@ from sc2jax.environment.engine.xla.fusion import set_static
 from sc2jax.environment.engine.xla.lazy import lazy_where, smallest_fit
 from sc2jax.environment.interface import specs
 from sc2jax.environment.interface.dense import DenseAction, check_dense_action
+from sc2jax.environment.interface.raw import RawAction, raw_action_spec
 
 BLIZZARD_SCORE = -2
 """`Simulator.score_index` for rewards from the Blizzard score."""
@@ -137,7 +139,11 @@ class Simulator:
     def observation_spec(self) -> dict:
         return specs.observation_spec(self.fmt, padded=True)
 
-    def action_spec(self) -> DenseAction:
+    def action_spec(self) -> DenseAction | RawAction:
+        """The spec of one action: a `DenseAction`'s, or with `fmt.action_space` "raw" a
+        `RawAction`'s."""
+        if self.fmt.action_space == "raw":
+            return raw_action_spec(self.fmt.max_units, self.renderer.raw_grid.size)
         return specs.action_spec(self.fmt.screen_size, self.fmt.minimap_size)
 
     @property
@@ -240,13 +246,30 @@ class Simulator:
                  else None)
         return new, (timestep(state, new, previous), other)
 
-    def act(self, state: EnvState, action: DenseAction) -> EnvState:
-        """Applies an action without advancing the game (the SC2 API's `RequestAction`).
+    def act(self, state: EnvState, action: DenseAction | RawAction) -> EnvState:
+        """Applies an action without advancing the game (the SC2 API's `RequestAction`):
+        a `DenseAction`, or with `fmt.action_space` "raw" a `RawAction`
+        (`raw_actions`).
 
         Raises:
-          ValueError: (while tracing, before any compilation) if `action` is not an
-            unbatched `DenseAction` of integer arrays (vmap `step` for a batch).
+          ValueError: (while tracing, before any compilation) if `action` is not one
+            environment's action of this simulator's action space (vmap `step` for a
+            batch).
         """
+        raw = self.fmt.action_space == "raw"
+        expected = RawAction if raw else DenseAction
+        if not isinstance(action, expected):
+            raise ValueError(f"this simulator's action space is {self.fmt.action_space!r}: "
+                             f"it takes a {expected.__name__}, got {type(action).__name__}")
+        if raw:
+            shape = jnp.shape(action.units)
+            if jnp.shape(action.function) != () or shape != (self.fmt.max_units,):
+                raise ValueError(f"a RawAction of one environment has function shape () "
+                                 f"and units shape ({self.fmt.max_units},) (max_units), got "
+                                 f"{jnp.shape(action.function)} and {shape} (jax.vmap "
+                                 "step for a batch)")
+            return apply_raw_action(state, action, self.renderer, self.card_table,
+                                    economy=self.game.has_production)
         try:
             check_dense_action(action, ())
         except ValueError as error:

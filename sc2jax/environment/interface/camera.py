@@ -3,8 +3,10 @@
 World coordinates have their origin at the bottom-left, y up. Feature layers are indexed
 (y, x) from the top-left. The screen is centred on the camera and spans
 `CAMERA_WIDTH` world units along its longer side (PySC2's `camera_width_world_units`);
-the minimap spans the whole map at `minimap_max_dim / map_max_dim` pixels per unit.
-A pixel stands for the world point at its centre.
+the minimap spans the whole map at `minimap_max_dim / map_max_dim` pixels per unit;
+the raw interface's grid (`raw_units`, the raw actions' `world` point) spans it at
+`raw_resolution / map_max_dim` along each axis. A pixel stands for the world point at
+its centre.
 
 Used by the simulator (under jit) and by the SC2-API client (on numpy arrays of the
 game's units), so it imports nothing else of sc2jax.
@@ -100,3 +102,32 @@ class Minimap:
         xs = (np.arange(mx) + 0.5) / self.pixels_per_unit
         ys = self.map_height - (np.arange(my) + 0.5) / self.pixels_per_unit
         return xs.astype(np.float32), ys.astype(np.float32)
+
+
+class RawGrid:
+    """Pixel <-> world transforms of PySC2's raw interface: `raw_units` x, y and the raw
+    actions' `world` point, on a grid of `resolution` (x, y) over a map of `map_size`
+    (width, height) world units, y down from the map's top edge.
+
+    Each axis is scaled by its resolution over the map's longer side, as PySC2 v4 does
+    (`Features.init_camera`); its default resolution, the map size, is one pixel a world
+    unit on a square map. Radii are scaled by the x axis's factor, as PySC2's.
+    """
+
+    def __init__(self, resolution: tuple[int, int], map_size: tuple[int, int]):
+        self.size = tuple(int(r) for r in resolution)
+        self.map_height = map_size[1]
+        longer = max(map_size)
+        self.scale = (self.size[0] / longer, self.size[1] / longer)
+        self.pixels_per_unit = self.scale[0]
+
+    def world_to_pixel(self, xy):
+        """As `Camera.world_to_pixel` (jittable, or numpy)."""
+        return _stack_xy(xy[..., 0] * self.scale[0],
+                         (self.map_height - xy[..., 1]) * self.scale[1])
+
+    def pixel_to_world(self, pixel):
+        """The world point (float32[..., 2]) at the centre of int pixel[..., 2]."""
+        pixel = pixel.astype(jnp.float32) + 0.5
+        return jnp.stack([pixel[..., 0] / self.scale[0],
+                          self.map_height - pixel[..., 1] / self.scale[1]], axis=-1)

@@ -10,7 +10,7 @@ from __future__ import annotations
 import jax.numpy as jnp
 
 from sc2jax.environment.interface import observation_tables as tables
-from sc2jax.environment.interface.camera import Camera, Minimap, array_module
+from sc2jax.environment.interface.camera import Camera, RawGrid, array_module
 
 
 def ratio_255(value, maximum):
@@ -58,8 +58,8 @@ def screen_unit_rows(api: dict, camera: Camera, center, dtype=jnp.int32):
                               api["radius"] * camera.pixels_per_unit, False, dtype)
 
 
-def minimap_unit_rows(api: dict, minimap: Minimap, dtype=jnp.int32):
-    """[N, 46] `raw_units` rows of every unit in `api`, in the pixels of `minimap`, with
-    tags (as `screen_unit_rows`)."""
-    return _feature_unit_rows(api, minimap.world_to_pixel(_world_pos(api)),
-                              api["radius"] * minimap.pixels_per_unit, True, dtype)
+def raw_unit_rows(api: dict, grid: RawGrid, dtype=jnp.int32):
+    """[N, 46] `raw_units` rows of every unit in `api`, in the pixels of the raw `grid`,
+    with tags (as `screen_unit_rows`)."""
+    return _feature_unit_rows(api, grid.world_to_pixel(_world_pos(api)),
+                              api["radius"] * grid.pixels_per_unit, True, dtype)

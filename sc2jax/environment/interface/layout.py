@@ -24,10 +24,10 @@ _UNIT_ROW_KEYS = ("single_select", "multi_select", "build_queue", "cargo", "feat
                   "raw_units")
 
 
-def to_pysc2_layout(padded: dict, map_name: str) -> dict:
+def to_pysc2_layout(padded: dict, map_name: str, raw: bool = False) -> dict:
     """Converts one padded observation (numpy) to PySC2's layout: variable-length lists
-    trimmed to their entries, the mask as `available_actions`, a list of ids, plus
-    `map_name`."""
+    trimmed to their entries, the mask as `available_actions`, a list of ids (none for
+    agents of the `raw` action space, as PySC2 gives them), plus `map_name`."""
     out = dict(padded)
     for key in _UNIT_ROW_KEYS:
         if key in out:
@@ -39,7 +39,9 @@ def to_pysc2_layout(padded: dict, map_name: str) -> dict:
     out["last_actions"] = out["last_actions"][out["last_actions"] >= 0]
     for key in ("action_result", "alerts", "upgrades"):
         out[key] = out[key][out[key] != 0]
-    out["available_actions"] = np.flatnonzero(out.pop(MASK)).astype(np.int32)
+    mask = out.pop(MASK)
+    if not raw:
+        out["available_actions"] = np.flatnonzero(mask).astype(np.int32)
     out["map_name"] = map_name
     return out
 

@@ -31,6 +31,7 @@ from sc2jax.environment.interface.functions import NUM_FUNCTIONS
 
 MIN_RESOLUTION = 16
 MAX_RESOLUTION = 256
+ACTION_SPACES = ("features", "raw")
 
 
 class VariableLengthArray(specs.Array):
@@ -78,6 +79,12 @@ class ObservationFormat:
       use_feature_units: add `feature_units` (on-screen units, 46 fields).
       use_raw_units: add `raw_units` (all visible units, 46 fields).
       max_units: rows of padded unit lists (`feature_units`, `raw_units`, `multi_select`).
+      raw_resolution: the raw grid's resolution, an int or (x, y) (`camera.RawGrid`:
+        `raw_units` x, y and the raw actions' `world` point); None for the map's size
+        (PySC2's default).
+      action_space: "features" (PySC2's `FUNCTIONS` on the feature layers: `DenseAction`)
+        or "raw" (PySC2's `RAW_FUNCTIONS`: `raw.RawAction`; needs `use_raw_units`, as
+        PySC2's `ActionSpace.RAW`).
     """
 
     screen_size: Size = 64
@@ -87,6 +94,8 @@ class ObservationFormat:
     use_feature_units: bool = False
     use_raw_units: bool = False
     max_units: int = 64
+    raw_resolution: Size | None = None
+    action_space: str = "features"
 
     def __post_init__(self):
         for name in ("screen_size", "minimap_size"):
@@ -99,6 +108,15 @@ class ObservationFormat:
                 object.__setattr__(self, name, tuple(f.name for f in select_layers(table, names)))
         if not isinstance(self.max_units, int) or self.max_units < 1:
             raise ValueError(f"max_units must be a positive int, got {self.max_units!r}")
+        if self.raw_resolution is not None:
+            object.__setattr__(self, "raw_resolution", normalize_size(
+                self.raw_resolution, "raw_resolution", 1, 4096))
+        if self.action_space not in ACTION_SPACES:
+            raise ValueError(f"action_space must be one of {ACTION_SPACES}, got "
+                             f"{self.action_space!r}")
+        if self.action_space == "raw" and not self.use_raw_units:
+            raise ValueError("action_space='raw' needs use_raw_units=True (the raw actions "
+                             "name units by their raw_units rows), as PySC2's does")
 
     @property
     def screen_layers(self):
@@ -192,8 +210,9 @@ def observation_spec(fmt: ObservationFormat = ObservationFormat(), *,
         out["available_actions_mask"] = specs.BoundedArray(
             (NUM_FUNCTIONS,), np.bool_, False, True, name="available_actions_mask")
     else:
-        out["available_actions"] = VariableLengthArray(
-            (NUM_FUNCTIONS,), np.dtype(np.int32), name="available_actions")
+        if fmt.action_space != "raw":  # PySC2 gives raw agents none.
+            out["available_actions"] = VariableLengthArray(
+                (NUM_FUNCTIONS,), np.dtype(np.int32), name="available_actions")
         out["map_name"] = StringSpec(name="map_name")
     # PySC2 gives the unit lists as int64; JAX (without x64) computes them as int32.
     units_dtype = np.int32 if padded else np.int64

@@ -24,8 +24,8 @@ import numpy as np
 
 from sc2jax.environment.interface import observation_tables as tables
 from sc2jax.environment.interface import specs
-from sc2jax.environment.interface.camera import Camera, Minimap
-from sc2jax.environment.interface.feature_units import minimap_unit_rows, screen_unit_rows
+from sc2jax.environment.interface.camera import Camera, RawGrid
+from sc2jax.environment.interface.feature_units import raw_unit_rows, screen_unit_rows
 from sc2jax.environment.interface.functions import (
     ALWAYS,
     FUNCTIONS,
@@ -195,8 +195,9 @@ def decode_units(units, fmt: specs.ObservationFormat, camera_center,
     `Unit` protos of `raw_data.units`, as `fmt` asks.
 
     `feature_units` are the units on screen, in screen pixels of the camera centred at
-    `camera_center` (world x, y); `raw_units` are all the units, in minimap pixels of a
-    map of `map_size` (width, height), with tags. Raw order ids are 0.
+    `camera_center` (world x, y); `raw_units` are all the units, in pixels of the raw
+    grid (`fmt.raw_resolution`, by default `map_size`) over a map of `map_size` (width,
+    height), with tags. Raw order ids are 0.
     """
     api = _decode_api_units(units)
     out = {}
@@ -205,8 +206,8 @@ def decode_units(units, fmt: specs.ObservationFormat, camera_center,
                                 np.asarray(camera_center, np.float32), np.int64)
         out["feature_units"] = rows[api["is_on_screen"] != 0]
     if fmt.use_raw_units:
-        out["raw_units"] = minimap_unit_rows(api, Minimap(fmt.minimap_size, tuple(map_size)),
-                                             np.int64)
+        grid = RawGrid(fmt.raw_resolution or tuple(map_size), tuple(map_size))
+        out["raw_units"] = raw_unit_rows(api, grid, np.int64)
     return out
 
 

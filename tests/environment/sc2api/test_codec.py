@@ -171,8 +171,10 @@ def test_unit_lists_are_pysc2s_rows_of_the_games_units():
     # Screen: 48 px span 24 world units (2 px per unit) centred on the camera.
     assert screen[0, F.x] == (41.5 - 40) * 2 + 24 and screen[0, F.y] == (30 - 27.5) * 2 + 16
     assert screen[0, F.radius] == 3 and screen[0, F.tag] == 0  # Tags in raw units only.
-    # Raw units: the minimap's 64 px span the map's longer side (96), y down.
-    assert (barracks[F.x], barracks[F.y]) == (int(41.5 * 64 / 96), int((96 - 27.5) * 64 / 96))
+    # Raw units: PySC2 v4's raw grid, by default the map size (88, 96), each axis scaled
+    # by its resolution over the map's longer side (96), y down.
+    assert (barracks[F.x], barracks[F.y]) == (int(41.5 * 88 / 96), int(96 - 27.5))
+    assert barracks[F.radius] == int(1.8125 * 88 / 96)
     assert barracks[F.tag] == 4_303_355_905  # 64-bit tags survive.
     assert barracks[F.facing] == 4 and barracks[F.order_length] == 2
     assert barracks[F.order_progress_0] == 55 and barracks[F.order_progress_1] == 0
