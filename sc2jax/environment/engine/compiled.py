@@ -45,12 +45,19 @@ def _split_over(fn, devices):
     return run
 
 
-@functools.cache
 def simulator(map_name: str, fmt: specs.ObservationFormat, step_mul: int, score_index: int,
               score_multiplier: float, discount: float,
               allow_cheating_layers: bool, use_slot_sizes: bool = True,
               num_slots: int | None = None, computer: int = 0) -> Simulator:
-    """One `Simulator` per configuration, so environments share compiled code."""
+    """One `Simulator` per configuration, so environments share compiled code (however
+    the arguments are passed)."""
+    return _simulator(map_name, fmt, step_mul, score_index, score_multiplier, discount,
+                      allow_cheating_layers, use_slot_sizes, num_slots, computer)
+
+
+@functools.cache
+def _simulator(map_name, fmt, step_mul, score_index, score_multiplier, discount,
+               allow_cheating_layers, use_slot_sizes, num_slots, computer) -> Simulator:
     return Simulator(map_name=map_name, fmt=fmt, step_mul=step_mul, score_index=score_index,
                      score_multiplier=score_multiplier, discount=discount,
                      allow_cheating_layers=allow_cheating_layers,
