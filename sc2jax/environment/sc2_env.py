@@ -3,6 +3,9 @@
 - `SC2Env`: one environment, PySC2's observation layout with PySC2's names
   (`obs.feature_screen.player_relative`, `layout.named`), takes a `FunctionCall` (or an
   unbatched `DenseAction`).
+- `MultiAgentSC2Env`: two agents in one game of a ladder map (self-play), as PySC2's
+  `SC2Env` with two `Agent`s: steps take one action per agent and return one
+  `TimeStep` per agent, each with its own observation and reward.
 - `BatchedSC2Env`: `num_envs` environments stepped together in one compiled call, the
   padded layout with a leading batch dimension, takes a batched `DenseAction` or a list
   of `FunctionCall`s. Each environment starts a new episode on the step after its LAST
@@ -21,7 +24,7 @@ import dm_env
 import jax
 import numpy as np
 
-from sc2jax.environment.engine.compiled import compiled, simulator
+from sc2jax.environment.engine.compiled import compiled, compiled_both, simulator
 from sc2jax.environment.engine.minigames import MAPS, check_map
 from sc2jax.environment.engine.simulator import EnvParams, Simulator
 from sc2jax.environment.engine.xla.compilation_cache import use_compilation_cache
@@ -154,6 +157,54 @@ class SC2Env(_Base):
                                               self._raw), self.simulator.fmt))
 
 
+class MultiAgentSC2Env(SC2Env):
+    """Two agents in one game of a two-player (ladder) map, as PySC2's `SC2Env` with two
+    `Agent`s: `step((action_1, action_2))` returns (player 1's TimeStep, player 2's),
+    each with its own observation (`player_id` 1 and 2) and reward; both actions are
+    applied, player 1's first, then the game advances (`Simulator.step_both`).
+
+    Args:
+      sim: a two-player map's simulator, without a computer.
+      seed, ensure_available_actions, game_steps_per_episode: as for `SC2Env`; each
+        agent's action is checked against its own last observation.
+    """
+
+    def __init__(self, sim: Simulator, seed: int | None = None,
+                 ensure_available_actions: bool = True, game_steps_per_episode: int = 0):
+        if sim.game.players != 2 or sim.computer:
+            raise ValueError(f"two agents play a two-player map without a computer; got "
+                             f"{sim.map_name} ({sim.game.players} player(s)), computer="
+                             f"{sim.computer}")
+        super().__init__(sim, seed, ensure_available_actions, game_steps_per_episode)
+        self._reset_fn, self._step_fn = compiled_both(sim)
+        # Each agent's last observation, which its next action is checked against.
+        self._seats = [SC2Env(sim, 0, ensure_available_actions) for _ in range(2)]
+
+    def reset(self) -> tuple[dm_env.TimeStep, dm_env.TimeStep]:
+        self._key, key = jax.random.split(self._key)
+        self._state, timesteps = self._reset_fn(key, self._params)
+        return self._convert_both(timesteps)
+
+    def step(self, actions) -> tuple[dm_env.TimeStep, dm_env.TimeStep]:
+        if self._state is None:
+            return self.reset()
+        one = isinstance(actions, (FunctionCall, DenseAction, RawAction))
+        if one or not isinstance(actions, (list, tuple)) or len(actions) != 2:
+            raise ValueError(f"step takes one action per agent (2 agents), got {actions!r}")
+        dense = tuple(seat._to_dense(a) for seat, a in zip(self._seats, actions))
+        if int(self._last_step_type) == dm_env.StepType.LAST:
+            return self.reset()
+        for seat, action in zip(self._seats, dense):
+            seat._check_available(action.function)
+        self._state, timesteps = self._step_fn(self._state, dense, self._params)
+        return self._convert_both(timesteps)
+
+    def _convert_both(self, timesteps):
+        first, second = (seat._convert(ts) for seat, ts in zip(self._seats, timesteps))
+        self._last_step_type = first.step_type
+        return first, second
+
+
 class BatchedSC2Env(_Base):
     """`num_envs` environments stepped together; padded observations with a batch dim.
 
@@ -267,7 +318,7 @@ def make(map_name: str, screen_size: specs.Size = 64, minimap_size: specs.Size =
          sc2path: str | None = None, bot: Any = None,
          num_devices: int = 1, use_slot_sizes: bool = True, action_space: str = "features",
          raw_resolution: specs.Size | None = None,
-         num_slots: int | None = None) -> dm_env.Environment:
+         num_slots: int | None = None, num_agents: int = 1) -> dm_env.Environment:
     """Creates an environment by map name: the simulator's, or the real game's.
 
     Args:
@@ -307,10 +358,12 @@ def make(map_name: str, screen_size: specs.Size = 64, minimap_size: specs.Size =
         (None: the map's size, PySC2's default).
       num_slots: on a ladder map of the simulator, its unit slots (`Simulator.num_slots`;
         None: enough for two players at 200 supply).
+      num_agents: 1, or 2 for a `MultiAgentSC2Env`: two agents in one game of a ladder
+        map (self-play; num_envs None, no bot, the simulator).
 
     Returns:
-      An `SC2Env` (num_envs None), a `BatchedSC2Env`, or for backend "sc2" a
-      `game_env.GameEnv`.
+      An `SC2Env` (num_envs None), a `MultiAgentSC2Env` (num_agents 2), a
+      `BatchedSC2Env`, or for backend "sc2" a `game_env.GameEnv`.
 
     The simulator's programs go to JAX's persistent compilation cache
     (`engine.xla.compilation_cache`; `SC2JAX_COMPILATION_CACHE=0` turns it off), so a
@@ -323,6 +376,13 @@ def make(map_name: str, screen_size: specs.Size = 64, minimap_size: specs.Size =
         raise ValueError(f"num_devices={num_devices!r} splits a batch of simulator "
                          f"environments; it needs num_envs and backend='simulator' (got "
                          f"num_envs={num_envs!r}, backend={backend!r})")
+    if num_agents not in (1, 2) or isinstance(num_agents, bool):
+        raise ValueError(f"num_agents must be 1 or 2, got {num_agents!r}")
+    if num_agents == 2 and (num_envs is not None or bot is not None or backend != "simulator"
+                            or map_name in MAPS):
+        raise ValueError(f"num_agents=2 plays two agents in one game of a ladder map on the "
+                         f"simulator, without num_envs or a bot; got map_name={map_name!r}, "
+                         f"num_envs={num_envs!r}, bot={bot!r}, backend={backend!r}")
     if backend == "sc2":
         if action_space != "features" or raw_resolution is not None:
             raise ValueError(f"backend 'sc2' takes the feature action space and the "
@@ -349,6 +409,8 @@ def make(map_name: str, screen_size: specs.Size = 64, minimap_size: specs.Size =
         raw_resolution=raw_resolution, action_space=action_space)
     sim = simulator(map_name, fmt, step_mul, score_index, float(score_multiplier),
                     float(discount), allow_cheating_layers, use_slot_sizes, num_slots, computer)
+    if num_agents == 2:
+        return MultiAgentSC2Env(sim, seed, ensure_available_actions, game_steps_per_episode)
     if num_envs is None:
         return SC2Env(sim, seed, ensure_available_actions, game_steps_per_episode)
     return BatchedSC2Env(sim, num_envs, seed, ensure_available_actions, game_steps_per_episode,

@@ -30,6 +30,12 @@ def compiled(sim: Simulator, batched: bool, devices: tuple[jax.Device, ...] = ()
     return jax.jit(reset), jax.jit(step)
 
 
+@functools.cache
+def compiled_both(sim: Simulator):
+    """Compiled `reset_both` and `step_both` of a two-player map (one game), shared."""
+    return jax.jit(sim.reset_both), jax.jit(sim.step_both)
+
+
 def _split_over(fn, devices):
     """`fn(*per_env, params)` vmapped over `per_env` and split over `devices`; the shared
     `params` are broadcast to each environment, as `over_devices` splits every argument."""

@@ -162,6 +162,18 @@ class Simulator:
         return state, self._timestep(state, jnp.int32(dm_env.StepType.FIRST), jnp.float32(0.0),
                                      jnp.float32(0.0))
 
+    def reset_both(self, key, params: EnvParams | None = None):
+        """Starts an episode of a two-player map. Returns (state, (the player's TimeStep,
+        the other player's)), both FIRST, each with its own observation (`step_both`).
+
+        Raises:
+          ValueError: on a one-player map.
+        """
+        self._check_two_players("reset_both")
+        state, timestep = self.reset(key, params)
+        return state, (timestep, timestep._replace(
+            observation=self._observe(players.mirror(state), None)))
+
     def step(self, state: EnvState, action: DenseAction, params: EnvParams | None = None,
              previous: dict | None = None, loops=None, other_action: DenseAction | None = None):
         """Advances one agent step (or starts a new episode after LAST).
@@ -213,10 +225,13 @@ class Simulator:
         Raises:
           ValueError: (while tracing) on a one-player map.
         """
-        if self.game.players != 2:
-            raise ValueError(f"step_both needs a two-player map; {self.map_name} has one player")
+        self._check_two_players("step_both")
         action, other_action = actions
         return self._step(state, action, params, None, None, other_action, both=True)
+
+    def _check_two_players(self, what: str):
+        if self.game.players != 2:
+            raise ValueError(f"{what} needs a two-player map; {self.map_name} has one player")
 
     def _step(self, state, action, params, previous, loops, other_action, both: bool):
         """`step`, and the other player's timestep where `both`."""

@@ -1,22 +1,23 @@
 """Melee maps (`minigames.melee`) and the two players (`rules.players`): the start of a
 melee game on each ladder map's layout, the mirror between the players' views, both
-players acting from their own observations (`Simulator.step_both`), the outcome, the
-30-minute tie, and determinism.
+players acting from their own observations (`Simulator.step_both`, and two agents
+through `make(num_agents=2)`), the outcome, the 30-minute tie, and determinism.
 
 The start and the mirror are checked on eagerly built states; the steps run the
 Acropolis melee game on every slot of 256 (`Simulator.num_slots`: room for 70 more units
 than the start's; compiled once, in the slow tier).
 """
 
-import functools
 
+import dm_env
 import jax
 import jax.numpy as jnp
 import numpy as np
 import pytest
 
-from sc2jax.environment import FUNCTIONS
+from sc2jax.environment import FUNCTIONS, make
 from sc2jax.environment.engine import ladder
+from sc2jax.environment.engine.compiled import compiled_both, simulator
 from sc2jax.environment.engine.minigames import get_map, melee
 from sc2jax.environment.engine.rules import players
 from sc2jax.environment.engine.rules.state import Outcome, Owner
@@ -24,20 +25,20 @@ from sc2jax.environment.engine.rules.units import UNIT_DATA, UnitType
 from sc2jax.environment.engine.simulator import Simulator
 from sc2jax.environment.interface.dense import to_dense
 from sc2jax.environment.interface.map_names import LADDER_MAPS
-from tests.environment.helpers import SMALL, assert_trees_equal
+from tests.environment.helpers import PARAMS, SMALL, SMALL_MAKE, assert_trees_equal
 
 F = FUNCTIONS
 MAP = "Acropolis"
 
 
-@functools.cache
-def sim(score_index=0):
-    return Simulator(MAP, SMALL, score_index=score_index, use_slot_sizes=False, num_slots=256)
+def sim(score_index=-1):
+    """The simulator `make(MAP, num_slots=256, num_agents=2, **SMALL_MAKE)` makes (the
+    outcome reward, every slot), so that the environment's test shares its programs."""
+    return simulator(MAP, SMALL, 8, score_index, 1.0, 1.0, False, False, 256)
 
 
-@functools.cache
 def step_both():
-    return jax.jit(sim().step_both)
+    return compiled_both(sim())[1]
 
 
 def dense(call):
@@ -161,7 +162,7 @@ def test_one_player_maps_take_no_other_action():
 
 
 def _start(seed=0):
-    state, _ = jax.jit(sim().reset)(jax.random.PRNGKey(seed))
+    state, _ = compiled_both(sim())[0](jax.random.PRNGKey(seed), PARAMS)
     return state
 
 
@@ -172,7 +173,8 @@ def test_each_player_acts_from_its_own_view():
     noop = dense(F.no_op())
     # The other player selects its Command Center (under its camera's centre) and trains
     # an SCV from its bank; the player's bank is untouched.
-    state, (mine, theirs) = step(state, (noop, dense(F.select_point("select", (16, 16)))))
+    state, (mine, theirs) = step(state, (noop, dense(F.select_point("select", (16, 16)))),
+                                 PARAMS)
     assert int(theirs.observation["player"][0]) == 2
     assert int(mine.observation["player"][0]) == 1
     cc = owned(state.units, Owner.ENEMY, UnitType.COMMAND_CENTER)
@@ -180,11 +182,11 @@ def test_each_player_acts_from_its_own_view():
     assert not np.asarray(state.units.selected).any()
     assert int(theirs.observation["single_select"][0, 0]) == UNIT_DATA.sc2_id[
         UnitType.COMMAND_CENTER]
-    state, (mine, theirs) = step(state, (noop, dense(F.Train_SCV_quick("now"))))
+    state, (mine, theirs) = step(state, (noop, dense(F.Train_SCV_quick("now"))), PARAMS)
     assert (int(state.minerals), int(state.other.minerals)) == (50, 0)
     # An SCV trains in 272 game loops (34 steps of 8).
     for _ in range(35):
-        state, (mine, theirs) = step(state, (noop, noop))
+        state, (mine, theirs) = step(state, (noop, noop), PARAMS)
     assert len(owned(state.units, Owner.ENEMY, UnitType.SCV)) == 13
     assert len(owned(state.units, Owner.SELF, UnitType.SCV)) == 12
     assert int(theirs.observation["player"][6]) == 13  # food_workers
@@ -201,16 +203,16 @@ def test_a_player_without_structures_loses_and_the_timer_ties():
     units = start.units
     enemy_structures = (units.owner == Owner.ENEMY) & (units.type == UnitType.COMMAND_CENTER)
     razed = start.replace(units=units.replace(alive=units.alive & ~enemy_structures))
-    after, (mine, theirs) = step(razed, noop)
+    after, (mine, theirs) = step(razed, noop, PARAMS)
     assert int(after.outcome) == Outcome.VICTORY
     assert int(mine.step_type) == int(theirs.step_type) == 2  # LAST
     assert float(mine.discount) == float(theirs.discount) == 0.0
-    outcome = sim(score_index=-1)
+    outcome = sim()
     assert float(outcome._reward(razed, after, True)) == 1.0
     assert float(outcome._reward(players.mirror(razed), players.mirror(after), True)) == -1.0
     # The 30-minute limit (28,800 game loops) ends the game in a tie.
     late = start.replace(game_loop=jnp.int32(28_800 - 8))
-    after, (mine, _) = step(late, noop)
+    after, (mine, _) = step(late, noop, PARAMS)
     assert int(after.outcome) == Outcome.TIE and int(mine.step_type) == 2
     assert float(outcome._reward(late, after, True)) == 0.0
 
@@ -225,6 +227,40 @@ def test_a_melee_game_is_deterministic_bit_for_bit():
     for _ in range(2):
         state = _start(seed=5)
         for mine, theirs in calls + [(F.no_op(), F.no_op())] * 5:
-            state, timesteps = step(state, (dense(mine), dense(theirs)))
+            state, timesteps = step(state, (dense(mine), dense(theirs)), PARAMS)
         runs.append((state, timesteps))
     assert_trees_equal(runs[0], runs[1])
+
+
+@pytest.mark.slow
+def test_two_agents_play_one_game_through_make():
+    env = make(MAP, num_slots=256, num_agents=2, seed=2, **SMALL_MAKE)
+    assert env.simulator is sim()  # Shares the programs of the tests above.
+    first, second = env.reset()
+    assert first.step_type == second.step_type == dm_env.StepType.FIRST
+    assert (first.observation["player"].player_id,
+            second.observation["player"].player_id) == (1, 2)
+    with pytest.raises(ValueError, match="function 490/Train_SCV_quick is not available"):
+        env.step((F.no_op(), F.Train_SCV_quick("now")))
+    first, second = env.step((F.select_idle_worker("select_all"), F.no_op()))
+    assert first.step_type == second.step_type == dm_env.StepType.MID
+    assert len(first.observation["multi_select"]) == 12  # Its 12 idle SCVs.
+    assert len(second.observation["multi_select"]) == 0
+    # Player 2 selects its Command Center at the centre of its screen, and trains an SCV.
+    first, second = env.step((F.no_op(), F.select_point("select", (16, 16))))
+    assert second.observation["single_select"][0].unit_type == 18  # A Command Center.
+    first, second = env.step((F.no_op(), F.Train_SCV_quick("now")))
+    assert (first.observation["player"].minerals, second.observation["player"].minerals) == (
+        50, 0)
+    assert len(second.observation["build_queue"]) == 1
+    assert first.reward == second.reward == 0.0 and first.observation["game_loop"][0] == 24
+    with pytest.raises(ValueError, match="step takes one action per agent"):
+        env.step(F.no_op())
+
+
+def test_two_agents_need_a_ladder_map_of_the_simulator():
+    with pytest.raises(ValueError, match="num_agents=2 plays two agents in one game of a "
+                                         "ladder map"):
+        make("MoveToBeacon", num_agents=2)
+    with pytest.raises(ValueError, match="num_agents must be 1 or 2, got 3"):
+        make(MAP, num_agents=3)
