@@ -144,10 +144,19 @@ def test_observations_are_named_and_the_specs_are_pysc2s():
 
 
 @pytest.mark.parametrize("kwargs, message", [
-    (dict(players=[sc2_env.Agent(sc2_env.Race.zerg)]), "the mini-games' player is Terran"),
+    (dict(players=[sc2_env.Agent(sc2_env.Race.zerg)]), "the simulator's players are Terran"),
     (dict(players=[sc2_env.Agent(sc2_env.Race.terran),
-                   sc2_env.Bot(sc2_env.Race.zerg, sc2_env.Difficulty.easy)]),
-     "one Agent and no Bot"),
+                   sc2_env.Bot(sc2_env.Race.terran, sc2_env.Difficulty.easy)]),
+     "mini-games with one Agent and no Bot"),
+    (dict(map_name="Acropolis", players=[sc2_env.Agent(sc2_env.Race.terran),
+                                         sc2_env.Bot(sc2_env.Race.zerg, 1)]),
+     "the simulator's players are Terran"),
+    (dict(map_name="Acropolis", players=[sc2_env.Agent(sc2_env.Race.terran),
+                                         sc2_env.Bot(sc2_env.Race.terran, 1,
+                                                     sc2_env.BotBuild.rush)]),
+     "Terran of build 'random'"),
+    (dict(map_name="Acropolis", players=[sc2_env.Agent(sc2_env.Race.terran)] * 3),
+     "its ladder maps with one Agent, two, or an Agent then a Bot"),
     (dict(players=None), "players is required"),
     (dict(map_name="MoveToBecon"), "MoveToBecon"),
     (dict(visualize=True), "visualize=True: not supported by the simulator"),
@@ -169,11 +178,14 @@ def test_settings_the_simulator_lacks_are_refused_by_name(kwargs, message):
         feature_dimensions=features.Dimensions(84, 64), camera_width_world_units=32),
      "camera_width_world_units=32"),
     (lambda: features.AgentInterfaceFormat(
-        feature_dimensions=features.Dimensions(84, 64), use_raw_actions=True,
-        use_unit_counts=True), "use_raw_actions, use_unit_counts: not supported"),
+        feature_dimensions=features.Dimensions(84, 64), max_raw_actions=8,
+        use_unit_counts=True), "max_raw_actions, use_unit_counts: not supported"),
     (lambda: features.AgentInterfaceFormat(
-        feature_dimensions=features.Dimensions(84, 64), action_space=features.ActionSpace.RAW),
-     "action_space ActionSpace.RAW"),
+        feature_dimensions=features.Dimensions(84, 64), action_space=features.ActionSpace.RGB),
+     "action_space ActionSpace.RGB"),
+    (lambda: features.AgentInterfaceFormat(
+        feature_dimensions=features.Dimensions(84, 64), action_space=actions.ActionSpace.RAW),
+     "You must set use_raw_units if you intend to use_raw_actions"),
     (lambda: features.Dimensions(screen=8, minimap=64), "screen"),
     (lambda: features.parse_agent_interface_format(feature_screen=84, feature_minimap=64,
                                                    rgb_screen=128), "no RGB"),
@@ -181,6 +193,48 @@ def test_settings_the_simulator_lacks_are_refused_by_name(kwargs, message):
 def test_interface_options_the_simulator_lacks_are_refused_by_name(make_format, message):
     with pytest.raises(ValueError, match=message):
         make_format()
+
+
+def test_a_raw_agent_moves_its_marine_by_its_raw_units_row():
+    with sc2_env.SC2Env(
+            map_name="MoveToBeacon", players=[sc2_env.Agent(sc2_env.Race.terran)],
+            agent_interface_format=features.AgentInterfaceFormat(
+                feature_dimensions=features.Dimensions(screen=16, minimap=16),
+                use_raw_units=True, action_space=actions.ActionSpace.RAW),
+            random_seed=0) as env:
+        (action_spec,), (obs_spec,) = env.action_spec(), env.observation_spec()
+        assert action_spec.types.world.sizes == (64, 64)  # The map's size.
+        assert action_spec.types.unit_tags.sizes == (30,)  # max_selected_units.
+        assert action_spec.functions[actions.RAW_FUNCTIONS.Move_pt.id].args[2].sizes == (64, 64)
+        assert "available_actions" not in obs_spec
+        (timestep,) = env.reset()
+        marine = [i for i, u in enumerate(timestep.observation.raw_units)
+                  if u.alliance == features.PlayerRelative.SELF][0]
+        x, y = (int(v) for v in timestep.observation.raw_units[marine][["x", "y"]])
+        for _ in range(4):
+            (timestep,) = env.step([actions.RAW_FUNCTIONS.Move_pt("now", [marine], (x, 10))])
+        assert timestep.observation.raw_units[marine].y < y
+
+
+def test_ladder_maps_take_an_agent_and_a_bot_or_two_agents():
+    interface = features.AgentInterfaceFormat(
+        feature_dimensions=features.Dimensions(screen=16, minimap=16), use_raw_units=True,
+        action_space=actions.ActionSpace.RAW, raw_resolution=88)
+    both = sc2_env.SC2Env(map_name="Acropolis", players=[sc2_env.Agent(sc2_env.Race.terran),
+                                                         sc2_env.Agent(sc2_env.Race.random)],
+                          agent_interface_format=[interface, interface])
+    specs = both.action_spec()
+    assert len(specs) == len(both.observation_spec()) == 2
+    assert specs[0].types.world.sizes == (88, 88)
+    assert both._envs["Acropolis"].simulator.score_index == -1  # The outcome, as PySC2's.
+    with pytest.raises(ValueError, match="step takes one action per agent"):
+        both.step([actions.RAW_FUNCTIONS.no_op()])
+    bot = sc2_env.SC2Env(map_name="Acropolis", players=[
+        sc2_env.Agent(sc2_env.Race.terran),
+        sc2_env.Bot(sc2_env.Race.terran, sc2_env.Difficulty.medium)],
+        agent_interface_format=interface)
+    assert bot._envs["Acropolis"].simulator.computer == sc2_env.Difficulty.medium
+    assert len(bot.action_spec()) == 1
 
 
 def test_unit_ids_are_blizzards():

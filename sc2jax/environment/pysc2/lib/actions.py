@@ -1,9 +1,12 @@
 """PySC2's `pysc2.lib.actions`: the 573 functions, their 13 argument types and the enums
-of their scalar arguments."""
+of their scalar arguments; the 564 raw functions and their 4 argument types; the action
+spaces."""
 
+import enum
 from typing import NamedTuple
 
 from sc2jax.environment.interface.arguments import (
+    RAW_TYPES,
     TYPES,
     Arguments,
     ArgumentType,
@@ -16,11 +19,20 @@ from sc2jax.environment.interface.arguments import (
 )
 from sc2jax.environment.interface.functions import (
     FUNCTIONS,
+    RAW_FUNCTIONS,
     Function,
     FunctionCall,
     Functions,
     FunctionType,
 )
+
+
+class ActionSpace(enum.Enum):
+    """How an agent acts (the simulator has no RGB observations)."""
+
+    FEATURES = 1
+    RGB = 2
+    RAW = 3
 
 
 class ValidActions(NamedTuple):
@@ -31,6 +43,7 @@ class ValidActions(NamedTuple):
     functions: Functions
 
 
-__all__ = ["FUNCTIONS", "TYPES", "Arguments", "ArgumentType", "ControlGroupAct", "Function",
-           "FunctionCall", "FunctionType", "Functions", "Queued", "SelectAdd",
-           "SelectPointAct", "SelectUnitAct", "SelectWorker", "ValidActions"]
+__all__ = ["FUNCTIONS", "RAW_FUNCTIONS", "RAW_TYPES", "TYPES", "ActionSpace",
+           "Arguments", "ArgumentType", "ControlGroupAct", "Function", "FunctionCall",
+           "FunctionType", "Functions", "Queued", "SelectAdd", "SelectPointAct",
+           "SelectUnitAct", "SelectWorker", "ValidActions"]

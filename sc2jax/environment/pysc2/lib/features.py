@@ -10,7 +10,6 @@ actions, unit counts, the camera position) are refused by name.
 from __future__ import annotations
 
 import dataclasses
-import enum
 
 from sc2jax.environment.interface.arguments import normalize_size
 from sc2jax.environment.interface.camera import CAMERA_WIDTH
@@ -35,18 +34,13 @@ from sc2jax.environment.interface.observation_tables import (
     UnitLayer,
 )
 from sc2jax.environment.interface.specs import MAX_RESOLUTION, MIN_RESOLUTION
+from sc2jax.environment.pysc2.lib.actions import ActionSpace
 
 __all__ = ["MINIMAP_FEATURES", "SCREEN_FEATURES", "ActionSpace", "AgentInterfaceFormat",
            "ControlGroup", "Dimensions", "Feature", "FeatureType", "FeatureUnit", "Player",
            "PlayerRelative", "ProductionQueue", "ScoreByCategory", "ScoreByVital",
            "ScoreCategories", "ScoreCumulative", "ScoreVitals", "UnitLayer", "Visibility",
            "parse_agent_interface_format"]
-
-class ActionSpace(enum.Enum):
-    FEATURES = 1
-    RGB = 2
-    RAW = 3
-
 
 @dataclasses.dataclass(frozen=True)
 class Dimensions:
@@ -71,7 +65,9 @@ class AgentInterfaceFormat:
     The options the simulator has: `feature_dimensions` (required), `use_feature_units`,
     `use_raw_units`, `allow_cheating_layers`, `hide_specific_actions` (True: PySC2's
     default, general functions only), `max_selected_units` (rows of `multi_select`),
-    `camera_width_world_units` (None or 24). The others must keep PySC2's defaults.
+    `camera_width_world_units` (None or 24), and the raw interface: `action_space`
+    `ActionSpace.RAW` or `use_raw_actions` (with `use_raw_units`, as PySC2's), and
+    `raw_resolution`. The others must keep PySC2's defaults.
 
     Raises:
       ValueError: an option the simulator does not have, or a bad value, naming it.
@@ -105,9 +101,14 @@ class AgentInterfaceFormat:
             raise ValueError(f"feature_dimensions must be a features.Dimensions (the "
                              f"simulator observes feature layers), got "
                              f"{self.feature_dimensions!r}")
-        if self.action_space not in (None, ActionSpace.FEATURES):
+        if self.action_space not in (None, ActionSpace.FEATURES, ActionSpace.RAW):
             raise ValueError(f"action_space {self.action_space} is not supported; the "
-                             f"simulator takes feature-layer actions (ActionSpace.FEATURES)")
+                             f"simulator takes feature-layer or raw actions "
+                             f"(ActionSpace.FEATURES or ActionSpace.RAW)")
+        if self.use_raw_actions and self.action_space == ActionSpace.FEATURES:
+            raise ValueError("Don't specify both an action_space and use_raw_actions.")
+        if self.raw and not self.use_raw_units:
+            raise ValueError("You must set use_raw_units if you intend to use_raw_actions")
         if self.camera_width_world_units not in (None, CAMERA_WIDTH):
             raise ValueError(f"camera_width_world_units={self.camera_width_world_units!r} "
                              f"is not supported; the simulator's camera is {CAMERA_WIDTH:g} "
@@ -125,8 +126,13 @@ class AgentInterfaceFormat:
                              f"leave {'it' if len(unsupported) == 1 else 'them'} at PySC2's "
                              f"default")
 
+    @property
+    def raw(self) -> bool:
+        """Whether the agent acts through the raw interface (`RAW_FUNCTIONS`)."""
+        return self.use_raw_actions or self.action_space == ActionSpace.RAW
 
-_UNSUPPORTED = ("rgb_dimensions", "raw_resolution", "use_raw_actions", "max_raw_actions",
+
+_UNSUPPORTED = ("rgb_dimensions", "max_raw_actions",
                 "use_unit_counts", "use_camera_position", "show_cloaked",
                 "show_burrowed_shadows", "show_placeholders", "action_delay_fn",
                 "send_observation_proto", "crop_to_playable_area",
