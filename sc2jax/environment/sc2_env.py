@@ -33,6 +33,7 @@ from sc2jax.environment.interface import specs
 from sc2jax.environment.interface.dense import DenseAction, check_dense_action, to_dense
 from sc2jax.environment.interface.functions import FUNCTIONS, FunctionCall, validate_function_call
 from sc2jax.environment.interface.layout import named, to_pysc2_layout
+from sc2jax.environment.interface.map_names import LADDER_MAP_PATHS
 from sc2jax.environment.interface.raw import RawAction, check_raw_action, to_raw_dense
 
 
@@ -456,7 +457,8 @@ def _make_game(map_name, screen_size, minimap_size, step_mul, num_envs, seed, sc
     if map_name in MAPS:
         map_path = f"mini_games/{map_name}.SC2Map"
     else:  # A ladder map: PySC2's 30-minute limit, which ends the game in a tie.
-        map_path = map_name if map_name.endswith(".SC2Map") else f"{map_name}.SC2Map"
+        map_path = LADDER_MAP_PATHS.get(map_name) or (
+            map_name if map_name.endswith(".SC2Map") else f"{map_name}.SC2Map")
         game_steps_per_episode = game_steps_per_episode or LADDER_GAME_STEPS
     return GameEnv(lambda: launch(sc2path).controller, map_name, map_path=map_path,
                    screen_size=screen_size, minimap_size=minimap_size,

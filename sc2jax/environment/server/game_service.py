@@ -4,8 +4,9 @@
 `sc2api.Response` protos; the websocket server (`server.py`) only moves bytes. The flow
 is the real game's (reference/pysc2_facts.md §6):
 
-    ping → create_game (the mini-game by map name, one Participant) → join_game (the
-    feature-layer resolutions) → [action → step → observation]* → save_replay →
+    ping → create_game (the map by name: a mini-game with one Participant, or a ladder
+    map with one Participant, and a Computer that the simulator's built-in AI plays)
+    → join_game (the feature-layer resolutions) → [action → step → observation]* → save_replay →
     restart_game → ... → leave_game → quit
     ping → replay_info → start_replay → [step → observation]* → leave_game → ...
 
@@ -36,6 +37,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
+from sc2jax.environment.engine.computer import LEVELS
 from sc2jax.environment.engine.minigames import MAPS, get_map
 from sc2jax.environment.engine.rules.state import Outcome
 from sc2jax.environment.engine.rules.units import UNIT_DATA, UnitType, game_name
@@ -43,7 +45,9 @@ from sc2jax.environment.engine.simulator import EnvParams
 from sc2jax.environment.interface import specs
 from sc2jax.environment.interface.dense import to_dense
 from sc2jax.environment.interface.functions import FUNCTIONS, FunctionCall, validate_function_call
+from sc2jax.environment.interface.map_names import LADDER_MAPS, MINI_GAMES, map_of_path
 from sc2jax.environment.interface.observation_tables import TERRAN
+from sc2jax.environment.interface.players import BotBuild
 from sc2jax.environment.sc2api import proto_actions, proto_observation
 from sc2jax.environment.sc2api.controller import RequestError
 from sc2jax.environment.sc2api.protos import sc2api
@@ -77,6 +81,31 @@ _STATUS = sc2api.Status
 _RESULT = sc2api.ActionResult
 
 
+def _computer_of(player_setup, map_name: str) -> int:
+    """The `Difficulty` of the computer a game's players ask for (0: none).
+
+    Raises:
+      ValueError: for players the simulator does not play, naming what it does.
+    """
+    kinds = [sc2api.PlayerType.Name(p.type) for p in player_setup]
+    allowed = [["Participant"]] + ([["Participant", "Computer"]] if map_name in LADDER_MAPS
+                                   else [])
+    if kinds not in allowed:
+        raise ValueError(f"the simulator plays the mini-games with one Participant, and its "
+                         f"ladder maps with one Participant and at most one Computer after "
+                         f"it; got {kinds} on {map_name}")
+    if len(kinds) == 1:
+        return 0
+    bot = player_setup[1]
+    races = {sc2api.Race.Value("Terran"), sc2api.Race.Value("Random")}
+    builds = {0, BotBuild.random}  # Unset, or random.
+    if bot.race not in races or bot.ai_build not in builds or bot.difficulty not in LEVELS:
+        raise ValueError(f"the simulator's computer is Terran (or Random) of build random "
+                         f"at a difficulty of {[int(d) for d in LEVELS]}; got race "
+                         f"{bot.race}, build {bot.ai_build}, difficulty {bot.difficulty}")
+    return bot.difficulty
+
+
 def _check_replay(replay: Replay) -> None:
     """Raises ValueError for a replay this server would not have written: another map,
     a bad key or resolution, a step of more than `MAX_STEP_COUNT` loops or
@@ -97,10 +126,17 @@ def _check_replay(replay: Replay) -> None:
 
 
 class GameService:
-    """One simulated game process answering SC2 API requests."""
+    """One simulated game process answering SC2 API requests.
 
-    def __init__(self):
+    Args:
+      melee_slots: the unit slots of ladder maps' games (`Simulator.num_slots`; None:
+        enough for two players at 200 supply).
+    """
+
+    def __init__(self, melee_slots: int | None = None):
         self.status = _STATUS.launched
+        self._melee_slots = melee_slots
+        self._computer = 0
         self._map_name: str | None = None
         self._map_path = ""
         self._seed_key = None
@@ -166,29 +202,29 @@ class GameService:
         error = response.create_game
         if request.HasField("local_map"):
             self._map_path = request.local_map.map_path
-            name = pathlib.PurePath(self._map_path.replace("\\", "/")).stem
+            name = map_of_path(self._map_path)
         elif request.HasField("battlenet_map_name"):
-            name = request.battlenet_map_name
+            name = map_of_path(request.battlenet_map_name)
         else:
             error.error = error.Error.Value("MissingMap")
             error.error_details = "create_game needs local_map or battlenet_map_name"
             return
-        if name not in MAPS:
+        if name is None:
             error.error = error.Error.Value("InvalidMapPath")
-            error.error_details = (f"map {name!r} is not a mini-game of the simulator; "
-                                   f"it has {sorted(MAPS)}")
+            given = request.local_map.map_path or request.battlenet_map_name
+            error.error_details = (f"map {given!r} is not a map of the simulator; it has "
+                                   f"the mini-games {sorted(MINI_GAMES)} and the ladder "
+                                   f"maps {sorted(LADDER_MAPS)}")
             return
-        participants = [p for p in request.player_setup
-                        if p.type == sc2api.PlayerType.Value("Participant")]
-        if len(request.player_setup) != 1 or len(participants) != 1:
+        try:
+            computer = _computer_of(request.player_setup, name)
+        except ValueError as e:
             error.error = error.Error.Value("InvalidPlayerSetup")
-            error.error_details = (f"the simulator plays the mini-games with one Participant "
-                                   f"and no Computer; got {len(participants)} participants "
-                                   f"among {len(request.player_setup)} players")
+            error.error_details = str(e)
             return
         seed = (request.random_seed if request.HasField("random_seed")
                 else int(np.random.SeedSequence().entropy % (2 ** 31)))
-        self._map_name = name
+        self._map_name, self._computer = name, computer
         self._seed_key = jax.random.PRNGKey(seed)
         self.status = _STATUS.init_game
 
@@ -241,6 +277,10 @@ class GameService:
         info.map_name, info.local_map_path = self._map_name, self._map_path
         info.player_info.add(player_id=1, type=sc2api.PlayerType.Value("Participant"),
                              race_requested=TERRAN, race_actual=TERRAN)
+        if self._computer:
+            info.player_info.add(player_id=2, type=sc2api.PlayerType.Value("Computer"),
+                                 race_requested=TERRAN, race_actual=TERRAN,
+                                 difficulty=self._computer)
         geometry = get_map(self._map_name).geometry
         raw = info.start_raw
         raw.map_size.x, raw.map_size.y = geometry.size
@@ -355,7 +395,9 @@ class GameService:
 
     def _reset(self, key) -> None:
         self._episode_key = key
-        self._programs = programs(self._map_name, self._fmt)
+        ladder = self._map_name not in MINI_GAMES
+        self._programs = programs(self._map_name, self._fmt, self._computer,
+                                  self._melee_slots if ladder else None)
         self._state, timestep = self._programs.reset(key, _PARAMS)
         self._last_observation = timestep.observation
         self._pending, self._steps = [], []
@@ -367,6 +409,9 @@ class GameService:
         self._require("save_replay", _STATUS.in_game, _STATUS.ended)
         if self._replay is not None:
             raise RequestError("save_replay", ["a replay being watched cannot be saved"])
+        if self._map_name not in MINI_GAMES:
+            raise RequestError("save_replay", ["the simulator saves replays of the "
+                                               "mini-games only, not yet of melee games"])
         outcome = int(self._state.outcome)
         response.save_replay.data = Replay(
             self._map_name, self._map_path, np.asarray(self._episode_key).tolist(),

@@ -7,8 +7,9 @@ The folder has the Linux layout that launchers (sc2jax's and PySC2's) look for:
 
     Versions/Base75689/SC2_x64     a script that runs `python -m sc2jax.environment.server`
                                    with the game's command-line arguments
-    Maps/mini_games/<Map>.SC2Map   one stand-in file per mini-game (the server picks the
-                                   mini-game by the map's name, not by its contents)
+    Maps/mini_games/<Map>.SC2Map   one stand-in file per mini-game and ladder map (the
+    Maps/Ladder2019Season*/<Map>LE.SC2Map  server picks the map by its name, not by its
+                                   contents; PySC2's map paths)
     Libs/                          empty (launchers add it to LD_LIBRARY_PATH)
 
 so an unmodified SC2-API client launches and plays the simulator instead of the game.
@@ -22,10 +23,11 @@ import shlex
 import stat
 import sys
 
+from sc2jax.environment.interface.map_names import LADDER_MAP_PATHS
 from sc2jax.environment.interface.map_names import MINI_GAMES as MAPS
 from sc2jax.environment.server.game_service import BASE_BUILD
 
-MAP_STAND_IN = b"sc2jax: a stand-in for the mini-game map %s; the simulator has the map.\n"
+MAP_STAND_IN = b"sc2jax: a stand-in for the map %s; the simulator has the map.\n"
 
 
 def write_sc2path(directory: str | os.PathLike, python: str | None = None) -> pathlib.Path:
@@ -51,5 +53,8 @@ def write_sc2path(directory: str | os.PathLike, python: str | None = None) -> pa
     maps.mkdir(parents=True, exist_ok=True)
     for name in MAPS:
         (maps / f"{name}.SC2Map").write_bytes(MAP_STAND_IN % name.encode())
+    for name, path in LADDER_MAP_PATHS.items():
+        (root / "Maps" / path).parent.mkdir(parents=True, exist_ok=True)
+        (root / "Maps" / path).write_bytes(MAP_STAND_IN % name.encode())
     (root / "Libs").mkdir(exist_ok=True)
     return root

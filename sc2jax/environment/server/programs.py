@@ -1,5 +1,5 @@
-"""The server's compiled programs: one set per map and observation format, a bounded number
-of sets kept.
+"""The server's compiled programs: one set per map, observation format and opponent, a
+bounded number of sets kept.
 
 A set compiles once, at the first `join_game` (or `start_replay`) of its map and format,
 and runs every step count: the count is a run-time argument of the step program
@@ -50,10 +50,13 @@ class Programs:
 
 
 @functools.lru_cache(maxsize=MAX_FORMATS)
-def programs(map_name: str, fmt: specs.ObservationFormat) -> Programs:
-    """The program set of `map_name` at `fmt` (compiled at first call; at most
-    `MAX_FORMATS` sets cached, least recently used dropped)."""
-    sim = Simulator(map_name=map_name, fmt=fmt, step_mul=STEP_MUL)
+def programs(map_name: str, fmt: specs.ObservationFormat, computer: int = 0,
+             num_slots: int | None = None) -> Programs:
+    """The program set of `map_name` at `fmt`, with the simulator's `computer` and
+    `num_slots` on ladder maps (compiled at first call; at most `MAX_FORMATS` sets
+    cached, least recently used dropped)."""
+    sim = Simulator(map_name=map_name, fmt=fmt, step_mul=STEP_MUL, computer=computer,
+                    num_slots=num_slots)
     return Programs(
         sim=sim, reset=jax.jit(sim.reset),
         step=jax.jit(lambda state, action, params, loops: sim.step(state, action, params,

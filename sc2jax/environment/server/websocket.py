@@ -70,12 +70,13 @@ class Sc2ApiServer:
       host, port: where to listen (port 0 picks a free one; see `port`).
       max_message_bytes: the largest request frame accepted.
       max_connections: the most connections at once.
+      melee_slots: the unit slots of ladder maps' games (`GameService`).
     """
 
     def __init__(self, host: str = "127.0.0.1", port: int = 0,
                  max_message_bytes: int = MAX_MESSAGE_BYTES,
-                 max_connections: int = MAX_CONNECTIONS):
-        self.service = GameService()
+                 max_connections: int = MAX_CONNECTIONS, melee_slots: int | None = None):
+        self.service = GameService(melee_slots)
         self._lock = threading.Lock()
         self._stopped = self._quitting = False
         self._closed = threading.Event()
@@ -199,6 +200,9 @@ def _parse(argv: Sequence[str]) -> tuple[argparse.Namespace, list[str]]:
     parser.add_argument("--host", "-listen", default="127.0.0.1", help="address to listen on")
     parser.add_argument("--max_message_mb", type=float, default=MAX_MESSAGE_BYTES / 2 ** 20,
                         help="largest request accepted, in MiB")
+    parser.add_argument("--melee_slots", type=int, default=None,
+                        help="unit slots of the ladder maps' games (default: enough for two "
+                             "players at 200 supply; fewer compile and run faster)")
     parser.add_argument("--write-sc2path", dest="write_sc2path", metavar="DIR",
                         help="write an install-like folder that starts this server, and exit")
     return parser.parse_known_args(list(argv))
@@ -219,7 +223,8 @@ def main(argv: Sequence[str] | None = None,
     if args.host not in LOOPBACK:
         print(f"warning: listening on {args.host}: this server has no authentication, so "
               f"anyone who can reach it can play its game", file=sys.stderr)
-    server = Sc2ApiServer(args.host, args.port, int(args.max_message_mb * 2 ** 20))
+    server = Sc2ApiServer(args.host, args.port, int(args.max_message_mb * 2 ** 20),
+                          melee_slots=args.melee_slots)
     announce(f"sc2jax SC2 API server listening on ws://{args.host}:{server.port}{PATH}")
     server.serve_forever()
     return 0

@@ -10,14 +10,20 @@ import sys
 import threading
 import time
 
+import jax
 import numpy as np
 import pytest
 import websocket
 from websockets.sync.server import serve
 
 from sc2jax.environment import make
+from sc2jax.environment.engine.rules.state import Owner
+from sc2jax.environment.engine.rules.units import UnitType
 from sc2jax.environment.interface import specs
 from sc2jax.environment.interface.functions import FUNCTIONS, FunctionCall
+from sc2jax.environment.interface.map_names import LADDER_MAP_PATHS
+from sc2jax.environment.interface.observation_tables import TERRAN
+from sc2jax.environment.interface.players import Difficulty
 from sc2jax.environment.sc2api import proto_actions
 from sc2jax.environment.sc2api.controller import Controller, RequestError
 from sc2jax.environment.sc2api.game_env import Bot, GameEnv
@@ -37,7 +43,8 @@ def test_requests_out_of_order_and_bad_setups_get_errors(server):
         with pytest.raises(RequestError, match="step needs status in_game, in_replay, ended; the "
                                                "status is launched"):
             controller.step(8)
-        with pytest.raises(RequestError, match="InvalidMapPath.*'Simple64' is not a mini-game"):
+        with pytest.raises(RequestError, match="InvalidMapPath.*'Simple64.SC2Map' is not a "
+                                               "map of the simulator"):
             controller.create_game(map_path="Simple64.SC2Map")
         bot = Bot("zerg", "easy").setup()
         with pytest.raises(RequestError, match="InvalidPlayerSetup"):
@@ -464,3 +471,49 @@ def test_quit_with_another_connection_open_exits_the_process_cleanly():
             idle.ping()
     finally:
         server.kill()
+
+
+@pytest.mark.slow
+def test_a_client_plays_a_ladder_map_against_the_simulators_computer():
+    server = Sc2ApiServer(port=0, melee_slots=256)
+    threading.Thread(target=server.serve_forever, daemon=True).start()
+    env = GameEnv(lambda: Controller.connect("127.0.0.1", server.port), "Acropolis",
+                  map_path=LADDER_MAP_PATHS["Acropolis"], bot=Bot("terran", "easy"),
+                  random_seed=7, **SIZES)
+    try:
+        ts = env.reset()
+        assert ts.observation["player"][0] == 1 and env._races == (TERRAN, TERRAN)
+        info = server.service  # The game the client created: the Easy computer plays it.
+        assert info._map_name == "Acropolis" and info._computer == Difficulty.easy
+        for _ in range(40):
+            ts = env.step(FUNCTIONS.no_op())
+        assert ts.observation["game_loop"][0] == 320 and ts.reward == 0.0
+        units = jax.device_get(info._state.units)
+        enemy_scvs = units.alive & (units.owner == Owner.ENEMY) & (units.type == UnitType.SCV)
+        assert enemy_scvs.sum() == 13  # It trained an SCV (272 game loops) from its 50.
+        with pytest.raises(RequestError, match="replays of the mini-games only"):
+            env._controller.save_replay()
+    finally:
+        env.close()
+        server.shutdown()
+
+
+def test_ladder_maps_take_one_computer_the_simulator_plays(server):
+    controller = Controller.connect("127.0.0.1", server.port)
+    try:
+        participant = sc2api.PlayerSetup(type=sc2api.PlayerType.Value("Participant"))
+        for bot, message in ((Bot("zerg", "easy"), "Terran \\(or Random\\) of build random"),
+                             (Bot("terran", "very_hard"), "difficulty 7"),
+                             (Bot("terran", "easy", "rush"), "build 2")):
+            with pytest.raises(RequestError, match=f"InvalidPlayerSetup.*{message}"):
+                controller.create_game(map_path=LADDER_MAP_PATHS["Triton"],
+                                       players=[participant, bot.setup()])
+        with pytest.raises(RequestError, match="InvalidPlayerSetup.*at most one Computer"):
+            controller.create_game(map_path="Acropolis LE", players=[
+                participant, Bot("terran", "easy").setup(), Bot("terran", "easy").setup()])
+        controller.create_game(map_path="Ladder2019Season2/KingsCoveLE.SC2Map",
+                               players=[participant, Bot("random", "hard").setup()])
+        assert server.service._map_name == "KingsCove"
+        assert server.service._computer == Difficulty.hard
+    finally:
+        controller.close()
