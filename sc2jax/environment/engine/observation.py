@@ -181,8 +181,8 @@ def api_units(state: EnvState, renderer: Renderer) -> dict:
     `radius` (world units), `build_progress` and `order_progress_0` (fractions),
     `health_max`, `shield_max`, `energy_max`, and `order_abilities` int32[N, Q + B] (the
     ability id of each order, or of the add-on a producer builds, then of each queued
-    unit; 0 for none). `shown`
-    marks the units the player sees (those the API reports).
+    unit; 0 for none), and `order_ability_k` (k < 4) the ability of the k-th order the
+    API lists. `shown` marks the units the player sees (those the API reports).
     """
     d = UNIT_DATA
     units = state.units
@@ -204,6 +204,8 @@ def api_units(state: EnvState, renderer: Renderer) -> dict:
     orders = orders.at[:, 0].set(jnp.where(building_addon, jnp.asarray(MAKE_ABILITY)[t[addon]],
                                            orders[:, 0]))
     order_abilities = jnp.concatenate([orders, jnp.asarray(MAKE_ABILITY)[units.queue]], axis=1)
+    listed = jnp.take_along_axis(  # The orders the API lists, in order.
+        order_abilities, jnp.argsort(order_abilities == 0, axis=1, stable=True), axis=1)
     training = (units.orders[:, 0] == Order.NONE) & (units.queue[:, 0] != 0)
     train_time = jnp.asarray(production.ITEM_TIME)[units.queue[:, 0]]
     progress_0 = jnp.where(building_addon, build_fraction(units)[addon], jnp.where(
@@ -237,6 +239,7 @@ def api_units(state: EnvState, renderer: Renderer) -> dict:
         "order_abilities": order_abilities,
         "order_length": jnp.sum(order_abilities != 0, axis=1).astype(jnp.int32),
         "order_progress_0": progress_0,
+        **{f"order_ability_{k}": listed[:, k] for k in range(4)},
     }
 
 

@@ -11,6 +11,7 @@ import jax.numpy as jnp
 
 from sc2jax.environment.interface import observation_tables as tables
 from sc2jax.environment.interface.camera import Camera, RawGrid, array_module
+from sc2jax.environment.interface.functions import RAW_FUNCTION_OF_ABILITY
 
 
 def ratio_255(value, maximum):
@@ -23,10 +24,15 @@ def ratio_255(value, maximum):
 def _feature_unit_rows(api: dict, pixel_pos, pixel_radius, with_tags: bool, dtype):
     """[N, 46] `FeatureUnit` rows from `api_units`-style values, by PySC2's rules:
     coordinates and radii in pixels, ratios 0..255, progress in percent, tags only
-    `with_tags`. Raw order ids are not reported (0); columns missing from `api` are 0."""
+    `with_tags`; `order_id_k` the raw function of order k's ability
+    (`RAW_FUNCTION_OF_ABILITY` of `order_ability_k`); columns missing from `api` are 0."""
     xp = array_module(api["unit_type"])
     zeros = xp.zeros(api["unit_type"].shape, dtype)
+    table = xp.asarray(RAW_FUNCTION_OF_ABILITY)
+    order_ids = {f"order_id_{k}": table[xp.clip(api[f"order_ability_{k}"], 0, len(table) - 1)]
+                 for k in range(4) if f"order_ability_{k}" in api}
     computed = {
+        **order_ids,
         "build_progress": api["build_progress"] * 100,
         "health_ratio": ratio_255(api["health"], api["health_max"]),
         "shield_ratio": ratio_255(api["shield"], api["shield_max"]),

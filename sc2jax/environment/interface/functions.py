@@ -286,6 +286,21 @@ def validate_function_call(call: FunctionCall, types: Arguments) -> FunctionCall
                                   for t, v in zip(func.args, arguments)])
 
 
+def _raw_function_of_ability() -> np.ndarray:
+    table = np.zeros(max(f.ability_id for f in RAW_FUNCTIONS) + 1, np.int32)
+    for f in sorted(RAW_FUNCTIONS, key=lambda f: -f.id):  # The lowest id wins.
+        if f.ability_id > 0:
+            table[f.ability_id] = f.id
+    table.flags.writeable = False
+    return table
+
+
+RAW_FUNCTION_OF_ABILITY = _raw_function_of_ability()
+"""int32[max ability + 1]: the raw function an order of each ability is reported as in
+unit rows (`order_id_*`), PySC2's `RAW_ABILITY_ID_TO_FUNC_ID` (the lowest raw function
+id of the ability; 0 for abilities without one)."""
+
+
 def validate_raw_call(call: FunctionCall) -> FunctionCall:
     """Checks a raw call (`RAW_FUNCTIONS`) and returns it normalised: `queued` by name
     or value, `unit_tags` a tag or a list of 1 to `MAX_RAW_UNIT_TAGS` tags,

@@ -178,6 +178,9 @@ def _decode_api_units(units) -> dict:
     out["x"] = np.array([u.pos.x for u in units], np.float32)
     out["y"] = np.array([u.pos.y for u in units], np.float32)
     out["order_length"] = np.array([len(u.orders) for u in units], np.int64)
+    for k in range(4):
+        out[f"order_ability_{k}"] = np.array(
+            [u.orders[k].ability_id if len(u.orders) > k else 0 for u in units], np.int64)
     for k in range(2):
         out[f"order_progress_{k}"] = np.array(
             [u.orders[k].progress if len(u.orders) > k else 0 for u in units], np.float32)
@@ -197,7 +200,7 @@ def decode_units(units, fmt: specs.ObservationFormat, camera_center,
     `feature_units` are the units on screen, in screen pixels of the camera centred at
     `camera_center` (world x, y); `raw_units` are all the units, in pixels of the raw
     grid (`fmt.raw_resolution`, by default `map_size`) over a map of `map_size` (width,
-    height), with tags. Raw order ids are 0.
+    height), with tags.
     """
     api = _decode_api_units(units)
     out = {}

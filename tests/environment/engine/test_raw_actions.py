@@ -165,3 +165,15 @@ def test_the_raw_grid_is_pysc2s_and_rows_name_the_units_listed():
     with pytest.raises(ValueError, match="units shape \\(64,\\)"):
         raw_sim.act(start, RawAction(*(jnp.asarray(a) for a in to_raw_dense(
             RAW_FUNCTIONS.no_op(), rows[:10], (64, 64)))))
+
+
+def test_raw_units_report_orders_as_raw_functions():
+    start, _, act_raw, raw_units_of, _, raw_sim = programs()
+    rows = raw_units_of(start)
+    train = RAW_FUNCTIONS.Train_SCV_quick("now", [_row(rows, CC)])
+    for _ in range(2):  # Two SCVs queued: both orders are listed.
+        start = act_raw(start, jax.tree.map(jnp.asarray, to_raw_dense(train, rows, (64, 64))))
+    cc = np.asarray(raw_units_of(start))[_row(rows, CC)]
+    assert cc[FU.order_length] == 2
+    assert cc[FU.order_id_0] == cc[FU.order_id_1] == RAW_FUNCTIONS.Train_SCV_quick.id
+    assert cc[FU.order_id_2] == 0

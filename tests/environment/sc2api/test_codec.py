@@ -178,7 +178,9 @@ def test_unit_lists_are_pysc2s_rows_of_the_games_units():
     assert barracks[F.tag] == 4_303_355_905  # 64-bit tags survive.
     assert barracks[F.facing] == 4 and barracks[F.order_length] == 2
     assert barracks[F.order_progress_0] == 55 and barracks[F.order_progress_1] == 0
-    assert barracks[F.order_id_0] == 0  # Raw function ids are not reported.
+    # Orders as raw functions, PySC2's RAW_ABILITY_ID_TO_FUNC_ID (560: Train_Marine).
+    assert barracks[F.order_id_0] == barracks[F.order_id_1] == 511
+    assert barracks[F.order_id_2] == 0 and screen[0, F.order_id_0] == 511
     assert barracks[F.addon_unit_type] == 37 and barracks[F.active] == 1
     assert barracks[F.build_progress] == 100 and lab[F.build_progress] == 25
     assert lab[F.health_ratio] == 63 and barracks[F.health_ratio] == 255
