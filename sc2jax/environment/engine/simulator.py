@@ -174,13 +174,15 @@ class Simulator:
         return state, (timestep, timestep._replace(
             observation=self._observe(players.mirror(state), None)))
 
-    def step(self, state: EnvState, action: DenseAction, params: EnvParams | None = None,
-             previous: dict | None = None, loops=None, other_action: DenseAction | None = None):
+    def step(self, state: EnvState, action: DenseAction | RawAction,
+             params: EnvParams | None = None, previous: dict | None = None, loops=None,
+             other_action: DenseAction | RawAction | None = None):
         """Advances one agent step (or starts a new episode after LAST).
 
         Args:
           state: the current state.
-          action: an unbatched `DenseAction`.
+          action: an unbatched `DenseAction` (a `RawAction` with `fmt.action_space`
+            "raw": `act`).
           params: the episode parameters.
           previous: None, or an observation this simulator returned before (the last
             timestep's, of any episode). The new observation's feature layers are
