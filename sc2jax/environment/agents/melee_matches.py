@@ -6,8 +6,8 @@ The other player is the computer at a level; the player is one of:
 - `IDLE`: does nothing;
 - `RANDOM`: the paper's random policy over the feature interface (`random_action`);
 - `SCRIPTED`: the computer's own script at a level of the player's (a difficulty, or
-  `RUSH`: a scripted rush of 2 Barracks and 14 SCVs attacking with every Marine from
-  3.5 minutes).
+  `RUSH`: a scripted rush of 2 Barracks and 14 SCVs attacking in waves of 5 Marines
+  from 3.5 minutes).
 
 Levels are traced values (`computer.Level` of arrays), so one compiled program plays
 every pairing.
@@ -27,10 +27,10 @@ from sc2jax.environment.interface.dense import zeros
 
 IDLE, RANDOM, SCRIPTED = 0, 1, 2
 RUSH = computer.Level(workers=14, barracks=2, refineries=0, tech=False, supply_margin=3,
-                      wave=1, first_attack=int(3.5 * computer.LOOPS_PER_MINUTE), retreat=0.0,
-                      period=1, scout_at=0)
-"""The scripted rush: 2 Barracks, 14 SCVs, and from 3.5 minutes on every idle Marine
-attacks (a wave of one)."""
+                      wave=5, first_attack=int(3.5 * computer.LOOPS_PER_MINUTE), retreat=0.0,
+                      period=1, scout_at=0, bank=300)
+"""The scripted rush: 2 Barracks (more while 300 minerals pile up), 14 SCVs, and from
+3.5 minutes on waves of 5 Marines that the Marines trained meanwhile join."""
 
 
 def as_arrays(level: computer.Level) -> computer.Level:

@@ -14,7 +14,8 @@ the game as the computer sees it (`players.mirror` of the agent's state) it retu
    numbers a wave (`Level.wave`), it attack-moves on the enemy structure nearest it
    (the computer knows where structures stand, as the game's AI knows the start
    locations), or the enemy's start location when it knows none;
-7. **Barracks** up to `Level.barracks`, once a Supply Depot stands;
+7. **Barracks** up to `Level.barracks`, once a Supply Depot stands, and more (up to
+   `MAX_BARRACKS`) while its minerals reach `Level.bank`;
 8. **gas**: Refineries up to `Level.refineries`, and 3 SCVs to each;
 9. **tech** (`Level.tech`): a Tech Lab on the first Barracks, and Stimpack there;
 10. **army**: a Marine (a Marauder at a Tech Lab) at each idle Barracks;
@@ -47,6 +48,7 @@ F = FUNCTIONS
 DEFENCE_RADIUS = 25.0
 """World units from home within which enemies draw the computer's idle army."""
 GAS_WORKERS = 3
+MAX_BARRACKS = 8
 
 
 class Level(NamedTuple):
@@ -63,6 +65,8 @@ class Level(NamedTuple):
       retreat: the share of a wave under which an attacking army goes home (0: never).
       period: the computer acts on every period-th agent step.
       scout_at: the game loop an SCV scouts at (0: never).
+      bank: minerals at which it builds Barracks beyond `barracks`, up to
+        `MAX_BARRACKS` (0: never; the weak levels float their money).
     """
 
     workers: int
@@ -75,22 +79,24 @@ class Level(NamedTuple):
     retreat: float
     period: int
     scout_at: int
+    bank: int
 
 
 LOOPS_PER_MINUTE = 22.4 * 60
 LEVELS = {
-    Difficulty.very_easy: Level(workers=13, barracks=1, refineries=0, tech=False,
-                                supply_margin=2, wave=6, first_attack=int(7 * LOOPS_PER_MINUTE),
-                                retreat=0.0, period=4, scout_at=0),
-    Difficulty.easy: Level(workers=16, barracks=2, refineries=0, tech=False, supply_margin=3,
-                           wave=8, first_attack=int(6 * LOOPS_PER_MINUTE), retreat=0.0,
-                           period=3, scout_at=int(2 * LOOPS_PER_MINUTE)),
+    Difficulty.very_easy: Level(workers=12, barracks=1, refineries=0, tech=False,
+                                supply_margin=1, wave=4, first_attack=int(8 * LOOPS_PER_MINUTE),
+                                retreat=0.0, period=6, scout_at=0, bank=0),
+    Difficulty.easy: Level(workers=14, barracks=1, refineries=0, tech=False, supply_margin=2,
+                           wave=6, first_attack=int(7 * LOOPS_PER_MINUTE), retreat=0.0,
+                           period=4, scout_at=int(2 * LOOPS_PER_MINUTE), bank=0),
     Difficulty.medium: Level(workers=19, barracks=3, refineries=1, tech=False,
-                             supply_margin=4, wave=12, first_attack=int(6 * LOOPS_PER_MINUTE),
-                             retreat=0.3, period=2, scout_at=int(2 * LOOPS_PER_MINUTE)),
+                             supply_margin=4, wave=10, first_attack=int(6 * LOOPS_PER_MINUTE),
+                             retreat=0.3, period=2, scout_at=int(2 * LOOPS_PER_MINUTE),
+                             bank=600),
     Difficulty.hard: Level(workers=22, barracks=4, refineries=2, tech=True, supply_margin=6,
                            wave=16, first_attack=int(7 * LOOPS_PER_MINUTE), retreat=0.4,
-                           period=1, scout_at=int(1.5 * LOOPS_PER_MINUTE)),
+                           period=1, scout_at=int(1.5 * LOOPS_PER_MINUTE), bank=400),
 }
 """The levels the simulator's computer plays (`Difficulty`'s first, third and fifth are
 VeryEasy, Medium and Hard)."""
@@ -239,9 +245,11 @@ def command(state: EnvState, lvl: Level, home, enemy_home, buildable) -> RawComm
     # 7. Barracks.
     has_depot = production.has_structure(units, UnitType.SUPPLY_DEPOT)
     rax_fits, rax_site = _site(state, buildable, UnitType.BARRACKS, home, away, addon=True)
-    jobs.append((has_depot & (kind_count(UnitType.BARRACKS) < lvl.barracks)
-                 & (minerals >= 150) & rax_fits & mining.any(), F.Build_Barracks_screen.id,
-                 builder(rax_site), rax_site, NO_TARGET))
+    rax = kind_count(UnitType.BARRACKS)
+    more = (rax < lvl.barracks) | ((lvl.bank > 0) & (minerals >= lvl.bank)
+                                   & (rax < MAX_BARRACKS))
+    jobs.append((has_depot & more & (minerals >= 150) & rax_fits & mining.any(),
+                 F.Build_Barracks_screen.id, builder(rax_site), rax_site, NO_TARGET))
     # 8. Gas.
     barracks = mine & (types == UnitType.BARRACKS)
     geysers = units.alive & (types == UnitType.VESPENE_GEYSER)
