@@ -1,7 +1,7 @@
-"""The simulator's built-in AI (`computer`) and the raw commands it gives
-(`actions.apply_raw`): its levels, a raw command's selection and effect, and a whole
-game between two scripted AIs, the Hard level's script against the VeryEasy computer
-(the game's outcome and rewards included).
+"""The simulator's built-in AI (`computer`): its levels, and a whole game between two
+scripted AIs, the Hard level's script against the VeryEasy computer (the game's outcome
+and rewards included). Raw commands (`actions.apply_raw`) are checked with the raw
+interface, in `test_raw_actions.py`.
 
 The game runs Acropolis on 256 slots at 16 game loops a step with a 16² observation
 without unit lists, in one jitted loop (`agents.melee_matches`), in the slow tier.
@@ -10,21 +10,18 @@ without unit lists, in one jitted loop (`agents.melee_matches`), in the slow tie
 import functools
 
 import jax
-import jax.numpy as jnp
 import numpy as np
 import pytest
 
 from sc2jax.environment import FUNCTIONS
 from sc2jax.environment.agents import melee_matches
 from sc2jax.environment.engine import computer
-from sc2jax.environment.engine.actions import RawCommand, apply_raw
 from sc2jax.environment.engine.rules.research import Research
-from sc2jax.environment.engine.rules.state import NO_TARGET, Order, Outcome, Owner
+from sc2jax.environment.engine.rules.state import Outcome, Owner
 from sc2jax.environment.engine.rules.units import UnitType
 from sc2jax.environment.engine.simulator import Simulator
 from sc2jax.environment.interface.observation_tables import ScoreCumulative
 from sc2jax.environment.interface.players import Difficulty
-from sc2jax.environment.interface.protocol_enums import ActionResult
 from sc2jax.environment.interface.specs import ObservationFormat
 from tests.environment.helpers import SMALL
 
@@ -54,36 +51,6 @@ def test_structure_sites_are_a_ring_nearest_first():
 
 
 TINY = ObservationFormat(screen_size=16, minimap_size=16)
-
-
-@functools.cache
-def game_sim():
-    return Simulator("Acropolis", TINY, step_mul=16, score_index=-1, use_slot_sizes=False,
-                     num_slots=256, computer=Difficulty.hard)
-
-
-@pytest.mark.slow
-def test_a_raw_command_selects_its_units_and_commands_them():
-    sim = game_sim()
-    state = sim._initial_state(jax.random.PRNGKey(0))
-    units = jax.device_get(state.units)
-    scvs = units.alive & (units.owner == Owner.SELF) & (units.type == UnitType.SCV)
-    field = int(np.flatnonzero(units.alive & (units.type == UnitType.MINERAL_FIELD))[0])
-    apply = jax.jit(functools.partial(apply_raw, renderer=sim.renderer, economy=True))
-    gather = RawCommand(function=jnp.int32(F.Harvest_Gather_screen.id),
-                        units=jnp.asarray(scvs), point=jnp.asarray(units.pos[field]),
-                        target=jnp.int32(field), queued=jnp.int32(0))
-    after = jax.device_get(apply(state, gather))
-    np.testing.assert_array_equal(after.units.selected, scvs)
-    assert (after.units.orders[scvs, 0] == Order.GATHER).all()
-    assert (after.units.order_unit[scvs, 0] == field).all()
-    assert int(after.last_action) == F.Harvest_Gather_screen.id
-    # A command the units cannot take is not supported, as a feature action.
-    build = gather._replace(function=jnp.int32(F.Train_Marine_quick.id),
-                            target=jnp.int32(NO_TARGET))
-    after = jax.device_get(apply(state, build))
-    assert int(after.action_result) == ActionResult.NotSupported
-    assert int(after.minerals) == 50
 
 
 @pytest.mark.slow

@@ -124,7 +124,7 @@ def test_a_raw_action_and_its_feature_action_give_the_same_game(case):
     assert not np.array_equal(jax.device_get(by_raw.units.pos), jax.device_get(start.units.pos))
 
 
-def test_raw_move_camera_and_no_op_keep_the_selection_and_unload_is_not_supported():
+def test_raw_move_camera_keeps_the_selection_and_unsupported_commands_do_nothing():
     start, _, act_raw, raw_units_of, _, raw_sim = programs()
     rows, grid = raw_units_of(start), raw_sim.renderer.raw_grid
     selected = _selecting(start, SCVS)
@@ -139,6 +139,13 @@ def test_raw_move_camera_and_no_op_keep_the_selection_and_unload_is_not_supporte
         RAW_FUNCTIONS.UnloadUnit_quick("now", [_row(rows, SCVS[0])]), rows, grid.size)))
     assert int(unloaded.action_result) == ActionResult.NotSupported
     _same(unloaded.replace(action_result=selected.action_result), selected)
+    # A command its units cannot take selects them and is not supported, as a feature
+    # action, at no cost.
+    marines = act_raw(start, jax.tree.map(jnp.asarray, to_raw_dense(
+        RAW_FUNCTIONS.Train_Marine_quick("now", [_row(rows, SCVS[0])]), rows, grid.size)))
+    assert int(marines.action_result) == ActionResult.NotSupported
+    assert int(marines.minerals) == int(start.minerals)
+    assert np.flatnonzero(marines.units.selected).tolist() == [SCVS[0]]
 
 
 def test_the_raw_grid_is_pysc2s_and_rows_name_the_units_listed():

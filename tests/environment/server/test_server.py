@@ -17,7 +17,7 @@ import websocket
 from websockets.sync.server import serve
 
 from sc2jax.environment import make
-from sc2jax.environment.engine.rules.state import Owner
+from sc2jax.environment.engine.rules.state import Order, Owner
 from sc2jax.environment.engine.rules.units import UnitType
 from sc2jax.environment.interface import specs
 from sc2jax.environment.interface.functions import FUNCTIONS, FunctionCall
@@ -485,12 +485,13 @@ def test_a_client_plays_a_ladder_map_against_the_simulators_computer():
         assert ts.observation["player"][0] == 1 and env._races == (TERRAN, TERRAN)
         info = server.service  # The game the client created: the Easy computer plays it.
         assert info._map_name == "Acropolis" and info._computer == Difficulty.easy
-        for _ in range(40):
+        for _ in range(2):
             ts = env.step(FUNCTIONS.no_op())
-        assert ts.observation["game_loop"][0] == 320 and ts.reward == 0.0
+        assert ts.observation["game_loop"][0] == 16 and ts.reward == 0.0
         units = jax.device_get(info._state.units)
         enemy_scvs = units.alive & (units.owner == Owner.ENEMY) & (units.type == UnitType.SCV)
-        assert enemy_scvs.sum() == 13  # It trained an SCV (272 game loops) from its 50.
+        # It acted on its first step: its idle SCVs went to mine (docs/full_game.md).
+        assert enemy_scvs.sum() == 12 and (units.orders[enemy_scvs, 0] == Order.GATHER).all()
         with pytest.raises(RequestError, match="replays of the mini-games only"):
             env._controller.save_replay()
     finally:
