@@ -6,8 +6,8 @@ is the real game's (reference/pysc2_facts.md §6):
 
     ping → create_game (the map by name: a mini-game with one Participant, or a ladder
     map with one Participant, and a Computer that the simulator's built-in AI plays)
-    → join_game (the feature-layer resolutions) → [action → step → observation]* → save_replay →
-    restart_game → ... → leave_game → quit
+    → join_game (the feature-layer resolutions) → [action → step → observation]*
+    → save_replay → restart_game → ... → leave_game → quit
     ping → replay_info → start_replay → [step → observation]* → leave_game → ...
 
 Status goes launched → init_game → in_game → ended (when the episode ends; the
