@@ -168,7 +168,8 @@ class HumanView:
         xs, ys = self.pixel_centres()
         image = jnp.asarray(self._terrain)
         if self.sim.game.fog:
-            seen = sight_grid(units, jnp.asarray(xs), jnp.asarray(ys), self.sim.game.own_slots)
+            seen = sight_grid(units, jnp.asarray(xs), jnp.asarray(ys), 1 / self.scale,
+                              self.sim.game.own_slots)
             explored = cell_lookup(state.explored, self.sim.game.geometry.size[1],
                                    jnp.asarray(xs), jnp.asarray(ys), False)
             image = image * jnp.where(seen, 1.0, jnp.where(explored, 0.55, 0.2))[..., None]

@@ -520,7 +520,7 @@ class Simulator:
         w, h = self.game.geometry.size
         xs = jnp.arange(w, dtype=jnp.float32) + 0.5
         ys = h - 1 - jnp.arange(h, dtype=jnp.float32) + 0.5
-        return state.replace(explored=state.explored | sight_grid(state.units, xs, ys,
+        return state.replace(explored=state.explored | sight_grid(state.units, xs, ys, 1.0,
                                                                     self.game.own_slots))
 
 

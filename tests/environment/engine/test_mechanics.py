@@ -1000,6 +1000,42 @@ def test_collision_pushes_on_padded_rows_are_the_unpadded_pushes(n):
     assert not np.array_equal(padded, pos)
 
 
+@pytest.mark.parametrize("eyes", [64, 768])
+def test_sight_grid_sees_exactly_the_pixels_within_sight(eyes):
+    # Both of sight_grid's ways (unrolled up to 64 eyes, row intervals beyond) against
+    # the distance test in numpy, on a melee map's cells, a minimap and a screen, with
+    # units on and off the grid and on half-cell points (where rounding decides).
+    rng = np.random.default_rng(eyes)
+    seeing = np.flatnonzero(UNIT_DATA.sight > 0)
+    w, h = 176, 184
+    ppu = 64 / 24
+    centre = np.float32([40.3, 151.7])
+    grids = [(np.arange(w) + 0.5, h - 0.5 - np.arange(h), 1.0),
+             ((np.arange(64) + 0.5) * 2.875, h - (np.arange(64) + 0.5) * 2.875, 2.875),
+             (centre[0] + (np.arange(64) + 0.5 - 32) / ppu,
+              centre[1] - (np.arange(64) + 0.5 - 32) / ppu, 1 / ppu)]
+    for halves in (False, True):
+        pos = rng.uniform(-5.0, 190.0, (eyes, 2)).astype(np.float32)
+        pos[:8] = centre + rng.uniform(-12.0, 12.0, (8, 2))
+        pos = np.round(pos * 2) / 2 if halves else pos
+        units = Units.empty(eyes).replace(
+            alive=jnp.asarray(rng.random(eyes) < 0.25),
+            owner=jnp.asarray(rng.choice([Owner.SELF, Owner.ENEMY], eyes)),
+            type=jnp.asarray(rng.choice(seeing, eyes)), pos=jnp.asarray(pos, jnp.float32))
+        looks = np.asarray(units.alive & (units.owner == Owner.SELF))
+        sight = UNIT_DATA.sight[np.asarray(units.type)].astype(np.float32)
+        for xs, ys, spacing in grids:
+            xs, ys = xs.astype(np.float32), ys.astype(np.float32)
+            dx2 = (xs[None, None, :] - pos[:, None, None, 0]) ** 2
+            dy2 = (ys[None, :, None] - pos[:, None, None, 1]) ** 2
+            want = ((dy2 + dx2 <= (sight * sight)[:, None, None]) & looks[:, None, None]
+                    ).any(0)
+            got = jax.jit(sight_grid, static_argnums=3)(units, jnp.asarray(xs),
+                                                        jnp.asarray(ys), spacing)
+            np.testing.assert_array_equal(got, want)
+            assert want.any() and not want.all()
+
+
 def test_fog_looks_through_the_own_slots_alone():
     # FindAndDefeatZerglings declares `own_slots`: the player's units never leave them,
     # through play and a zergling respawn...
@@ -1026,6 +1062,7 @@ def test_fog_looks_through_the_own_slots_alone():
         assert not np.asarray(units.alive[own:] & (units.owner[own:] == Owner.SELF)).any()
         # ...so looking through them alone sees exactly what looking through all does,
         # here with every enemy made the player's: the full grid then sees more.
-        np.testing.assert_array_equal(sight_grid(units, xs, ys, own), sight_grid(units, xs, ys))
+        np.testing.assert_array_equal(sight_grid(units, xs, ys, 1.0, own),
+                                      sight_grid(units, xs, ys, 1.0))
         mine = units.replace(owner=jnp.full_like(units.owner, Owner.SELF))
-        assert bool((sight_grid(mine, xs, ys) & ~sight_grid(mine, xs, ys, own)).any())
+        assert bool((sight_grid(mine, xs, ys, 1.0) & ~sight_grid(mine, xs, ys, 1.0, own)).any())
