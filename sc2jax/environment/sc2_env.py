@@ -24,6 +24,7 @@ import dm_env
 import jax
 import numpy as np
 
+from sc2jax.environment.engine import computer
 from sc2jax.environment.engine.compiled import compiled, compiled_both, simulator
 from sc2jax.environment.engine.minigames import MAPS, check_map
 from sc2jax.environment.engine.simulator import EnvParams, Simulator
@@ -398,7 +399,7 @@ def make(map_name: str, screen_size: specs.Size = 64, minimap_size: specs.Size =
     if sc2path is not None:
         raise ValueError("sc2path applies to backend='sc2' only")
     check_map(map_name)
-    computer = _simulator_computer(bot, map_name)
+    computer = simulator_computer(bot, map_name)
     if map_name not in MAPS and not score_index:
         score_index = -1  # PySC2's default on ladder maps: the outcome.
     use_compilation_cache()
@@ -418,7 +419,7 @@ def make(map_name: str, screen_size: specs.Size = 64, minimap_size: specs.Size =
                          num_devices)
 
 
-def _simulator_computer(bot, map_name: str) -> int:
+def simulator_computer(bot, map_name: str) -> int:
     """The `Difficulty` of the simulator's computer a `game_env.Bot` asks for (0: none).
 
     Raises:
@@ -437,6 +438,7 @@ def _simulator_computer(bot, map_name: str) -> int:
     if race != "terran" or build != "random" or not isinstance(difficulty, int):
         raise ValueError(f"the simulator's computer is a Terran of build 'random' at a "
                          f"difficulty; got bot={bot!r}")
+    computer.level(difficulty)  # Raises for a difficulty it does not play.
     return difficulty
 
 

@@ -11,7 +11,11 @@ import dataclasses
 
 from sc2jax.checks import check_non_negative_int, check_positive_int
 from sc2jax.environment.engine.minigames import check_map
+from sc2jax.environment.engine.rules.state import NUM_SCORE_CUMULATIVE
+from sc2jax.environment.engine.simulator import BLIZZARD_SCORE
+from sc2jax.environment.interface.map_names import MINI_GAMES
 from sc2jax.environment.interface.specs import ObservationFormat
+from sc2jax.environment.sc2_env import simulator_computer
 from sc2jax.environment.sc2api.game_env import Bot
 from sc2jax.experiments.training.actor import function_mask
 from sc2jax.losses.learner_loss import OFF_POLICY_CORRECTIONS
@@ -35,9 +39,13 @@ class TrainConfig:
         program) or "sc2": StarCraft II itself, one game process per environment,
         stepped by a host actor thread that feeds the learner (the split loop; its
         policy lags the learner's by up to 2 updates, which V-trace corrects).
-      bot: the built-in AI opponent on the real game, (race, difficulty[, build]) as
+      bot: the built-in AI opponent of a ladder map, (race, difficulty[, build]) as
         `game_env.Bot` takes them, e.g. ("terran", "easy") for the paper's full game;
-        None: no opponent (the mini-games).
+        None: no opponent (on a ladder map, an idle one). The simulator's computer is
+        a Terran of build "random" at difficulty very_easy, easy, medium or hard.
+      score_index: the reward (simulator): None for the map's default (the mini-games'
+        score; the outcome on ladder maps, as PySC2), or `Simulator.score_index`'s: -1
+        the outcome, -2 the Blizzard score, k >= 0 `score_cumulative[k]`.
       agent: the network: "atari", "fullyconv", "fullyconv_lstm" or "arfullyconv".
       screen_size, minimap_size: feature-layer resolutions (16..256).
       screen_features, minimap_features: layer names (None: all of them).
@@ -90,6 +98,7 @@ class TrainConfig:
     map_name: str = "MoveToBeacon"
     backend: str = "simulator"
     bot: tuple[str, ...] | None = None
+    score_index: int | None = None
     agent: str = "fullyconv"
     screen_size: int = 64
     minimap_size: int = 64
@@ -132,13 +141,22 @@ class TrainConfig:
         if self.backend == "simulator":
             check_map(self.map_name, " (or any map of the game with backend 'sc2')")
         if self.bot is not None:
-            if self.backend != "sc2":
-                raise ValueError(f"bot {self.bot!r} needs backend 'sc2' (the simulator's "
-                                 f"mini-games have no opponent)")
             if isinstance(self.bot, str) or not 1 <= len(self.bot) <= 3:
                 raise ValueError(f"bot must be (race, difficulty[, build]), got {self.bot!r}")
             object.__setattr__(self, "bot", tuple(self.bot))
-            self.opponent().setup()  # checks the race, difficulty and build
+            if self.backend == "simulator":
+                simulator_computer(self.opponent(), self.map_name)
+            else:
+                self.opponent().setup()  # checks the race, difficulty and build
+        if self.score_index is not None:
+            if self.backend != "simulator":
+                raise ValueError(f"score_index {self.score_index!r} needs backend "
+                                 "'simulator' (the real game rewards as `make` does)")
+            if (isinstance(self.score_index, bool) or not isinstance(self.score_index, int)
+                    or not BLIZZARD_SCORE <= self.score_index < NUM_SCORE_CUMULATIVE):
+                raise ValueError(f"score_index must be None, -2 (the Blizzard score), -1 "
+                                 f"(the outcome) or in [0, {NUM_SCORE_CUMULATIVE - 1}], got "
+                                 f"{self.score_index!r}")
         if self.agent not in NETWORKS:
             raise ValueError(f"unknown network {self.agent!r}; allowed: {sorted(NETWORKS)}")
         if self.off_policy_correction not in OFF_POLICY_CORRECTIONS:
@@ -200,6 +218,12 @@ class TrainConfig:
     def opponent(self) -> Bot | None:
         """The `game_env.Bot` of `bot`."""
         return None if self.bot is None else Bot(*self.bot)
+
+    def reward_index(self) -> int:
+        """The simulator's `score_index` of `score_index` (None: the map's default)."""
+        if self.score_index is not None:
+            return self.score_index
+        return 0 if self.map_name in MINI_GAMES else -1
 
     def observation_format(self) -> ObservationFormat:
         return ObservationFormat(screen_size=self.screen_size, minimap_size=self.minimap_size,

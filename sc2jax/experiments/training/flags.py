@@ -49,13 +49,17 @@ def start_command() -> None:
 # flag name -> (TrainConfig field, absl definer, help).
 _TABLE = {
     "map": ("map_name", flags.DEFINE_string,
-            f"Mini-game: one of {sorted(MINI_GAMES)} (with --backend=sc2, any map the game "
-            "has)."),
+            f"Mini-game: one of {sorted(MINI_GAMES)}, or a ladder map (with --backend=sc2, "
+            "any map the game has)."),
     "backend": ("backend", flags.DEFINE_string,
                 f"One of {list(BACKENDS)}: 'simulator' (embedded) or 'sc2' (StarCraft II, one "
                 "game process per environment, from --sc2path)."),
-    "bot": ("bot", flags.DEFINE_string, "A built-in AI opponent on the real game: "
-            "race,difficulty[,build], e.g. terran,easy."),
+    "bot": ("bot", flags.DEFINE_string, "A built-in AI opponent on a ladder map: "
+            "race,difficulty[,build], e.g. terran,easy (the simulator's: terran at "
+            "very_easy, easy, medium or hard)."),
+    "score_index": ("score_index", flags.DEFINE_integer, "The reward (simulator): unset for "
+                    "the map's default (the mini-games' score, the outcome on ladder maps), "
+                    "-1 the outcome, -2 the Blizzard score, k >= 0 score_cumulative[k]."),
     "network": ("agent", flags.DEFINE_string, f"Network: one of {sorted(NETWORKS)}."),
     "screen_size": ("screen_size", flags.DEFINE_integer, "Feature-screen resolution (16..256)."),
     "minimap_size": ("minimap_size", flags.DEFINE_integer,

@@ -14,6 +14,8 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 
+from sc2jax.environment.engine.simulator import BLIZZARD_SCORE
+from sc2jax.environment.interface.players import Difficulty
 from sc2jax.experiments.reporting.metrics_log import read_csv
 from sc2jax.experiments.sweeps import sweeping as sampling
 from sc2jax.experiments.sweeps.random_search import over_policies, random_search
@@ -61,6 +63,12 @@ SWEEP = TrainConfig(**{**PERIODIC.to_json(), "eval_episodes": 2})
     (dict(gae_lambda=-0.1), r"gae_lambda must be in \[0, 1\], got -0.1"),
     (dict(actor_device=-1), "actor_device must be an int >= 0, got -1"),
     (dict(backend="sc2", actor_device=0), "actor_device=0 needs backend 'simulator'"),
+    (dict(bot=("terran", "easy")), "bot plays the other player of a ladder map"),
+    (dict(map_name="Acropolis", bot=("zerg", "easy")), "the simulator's computer is a Terran"),
+    (dict(map_name="Acropolis", bot=("terran", "cheat_insane")), "the simulator's computer"),
+    (dict(score_index=-3), r"score_index must be None, -2 \(the Blizzard score\)"),
+    (dict(score_index=True), "score_index must be None"),
+    (dict(backend="sc2", score_index=-1), "score_index -1 needs backend 'simulator'"),
 ])
 def test_config_rejects_bad_values(change, message):
     with pytest.raises(ValueError, match=message):
@@ -73,6 +81,19 @@ def test_config_json_roundtrip_and_layers():
     assert TINY.steps_per_update == 8 and TINY.total_updates == 4
     with pytest.raises(ValueError, match="unknown config keys"):
         TrainConfig.from_json({"bogus": 1})
+
+
+def test_a_ladder_map_config_plays_the_simulators_computer_for_its_reward():
+    # The paper's full game: A3C against the easiest computer, rewarded by the outcome
+    # (PySC2's default on ladder maps) or the Blizzard score.
+    config = TrainConfig(map_name="Acropolis", bot=("terran", "very_easy"), screen_size=16,
+                         minimap_size=16)
+    assert config.reward_index() == -1 and TINY.reward_index() == 0
+    sim = trainer.build(config).sim
+    assert sim.computer == Difficulty.very_easy and sim.score_index == -1
+    scored = dataclasses.replace(config, score_index=BLIZZARD_SCORE)
+    assert trainer.build(scored).sim.score_index == BLIZZARD_SCORE
+    assert trainer.build(dataclasses.replace(config, bot=None)).sim.computer == 0
 
 
 def test_configs_that_differ_only_in_run_settings_share_their_programs():
