@@ -301,12 +301,16 @@ class Simulator:
         (or `loops`, as in `step`) game loops, with no auto-reset: the state part of
         `step` (the SC2 API's `RequestAction` then `RequestStep`)."""
         _, step_key = threefry.split(state.key)
-        state = self.act(state.replace(key=step_key), action)
-        if other_action is not None:
-            state = players.mirror(self.act(players.mirror(state), other_action))
-        elif self.computer:
-            state = players.mirror(self._computer_acts(players.mirror(state)))
-        return self._advance(state, loops)
+
+        def acts(state: EnvState) -> EnvState:
+            state = self.act(state, action)
+            if other_action is not None:
+                return players.mirror(self.act(players.mirror(state), other_action))
+            if self.computer:
+                return players.mirror(self._computer_acts(players.mirror(state)))
+            return state
+
+        return self._advance(state.replace(key=step_key), loops, acts)
 
     def _computer_acts(self, seen: EnvState) -> EnvState:
         """The built-in AI's command applied to the game as it sees it."""
@@ -403,8 +407,10 @@ class Simulator:
                 camera=cameras[1]))
         return self.game.on_start(_for_each_player(state, self._explore))
 
-    def _advance(self, state: EnvState, count=None) -> EnvState:
-        """Runs the step's game loops (`advance`), the actions applied."""
+    def _advance(self, state: EnvState, count=None, acts=None) -> EnvState:
+        """Applies the actions (`acts`: state -> state, or None) and runs the step's
+        game loops (`advance`), both on the leading slots in use where the map has slot
+        sizes."""
         game = self.game
         buildable = self.renderer.buildable
         two = state.other is not None
@@ -472,6 +478,7 @@ class Simulator:
             was in use from the start (`_on_leading_slots`). A static count is a scan;
             a run-time one a while loop with the same body."""
             start = state.units.alive[-1]
+            state = state if acts is None else acts(state)
             state, heading, last = jax.lax.fori_loop(
                 0, self.step_mul if count is None else count, one_loop,
                 (state, jnp.zeros_like(state.units.pos), jnp.bool_(False)))
@@ -500,7 +507,9 @@ class Simulator:
         in use, and room for the units the step can create: on maps with production one
         slot per unit of either player that can create one (`production.creators`;
         each makes at most one in `production.MIN_BUILD_LOOPS` loops), and the
-        script's `spawn_room`.
+        script's `spawn_room`. An action that creates a unit (an add-on, a MULE) takes
+        the first free slot; where that is the last of the cut, the step runs again on
+        more slots.
 
         The room is a guess that holds for most steps (a wave can follow another
         within a step; a long step can train several units), not a bound: a run whose
@@ -587,6 +596,16 @@ def _on_leading_slots(run, size: int, state: EnvState):
     """
     if size == state.units.num_slots:
         return run(state)
-    out, fits = run(state.replace(units=leading_slots(state.units, size)))
-    return out.replace(units=jax.tree.map(lambda full, head: full.at[:size].set(head),
-                                          state.units, out.units)), fits
+    put = lambda full, head: full.at[:size].set(head)  # noqa: E731
+    other = state.other
+    cut = state.replace(units=leading_slots(state.units, size))
+    if other is not None:  # The other player's selection and groups are per slot too.
+        cut = cut.replace(other=other.replace(selected=other.selected[:size],
+                                              groups=other.groups[:size]))
+    out, fits = run(cut)
+    out = out.replace(units=jax.tree.map(put, state.units, out.units))
+    if other is not None:
+        out = out.replace(other=out.other.replace(
+            selected=put(other.selected, out.other.selected),
+            groups=put(other.groups, out.other.groups)))
+    return out, fits

@@ -611,8 +611,8 @@ def _plot(run_dir: str, config: TrainConfig) -> None:
     if table["step"].size == 0:
         return
     row = NETWORK_ROW.get(config.agent)
-    references = {} if row is None else {f"paper {row} best mean":
-                                         TABLE1[row][config.map_name][0]}
+    paper = TABLE1.get(row, {}).get(config.map_name)  # The mini-games alone.
+    references = {} if paper is None else {f"paper {row} best mean": paper[0]}
     plot_learning_curves({"run": (table["step"], table["score"])},
                          os.path.join(run_dir, "learning_curve.png"),
                          title=f"{config.agent} on {config.map_name}", references=references)
