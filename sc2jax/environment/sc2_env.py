@@ -427,19 +427,11 @@ def simulator_computer(bot, map_name: str) -> int:
     """
     if bot is None:
         return 0
-    from sc2jax.environment.sc2api.game_env import DIFFICULTIES  # It imports this module.
-
     if map_name in MAPS:
         raise ValueError(f"bot plays the other player of a ladder map; {map_name} is a "
                          "mini-game")
-    race, build = getattr(bot, "race", None), getattr(bot, "build", None)
-    difficulty = getattr(bot, "difficulty", None)
-    difficulty = DIFFICULTIES.get(difficulty, difficulty)
-    if race != "terran" or build != "random" or not isinstance(difficulty, int):
-        raise ValueError(f"the simulator's computer is a Terran of build 'random' at a "
-                         f"difficulty; got bot={bot!r}")
-    computer.level(difficulty)  # Raises for a difficulty it does not play.
-    return difficulty
+    return int(computer.opponent(getattr(bot, "race", None), getattr(bot, "difficulty", None),
+                                 getattr(bot, "build", None)))
 
 
 def _make_game(map_name, screen_size, minimap_size, step_mul, num_envs, seed, screen_features,

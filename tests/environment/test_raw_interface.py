@@ -71,8 +71,9 @@ def test_raw_settings_are_checked_before_anything_is_compiled():
         make("MoveToBeacon", backend="sc2", use_raw_units=True, action_space="raw")
     with pytest.raises(ValueError, match="bot plays the other player of a ladder map"):
         make("MoveToBeacon", bot=Bot("terran", "easy"))
-    with pytest.raises(ValueError, match="the simulator's computer is a Terran of build "
-                                         "'random'"):
+    with pytest.raises(ValueError, match=r"the simulator's computer is a Terran \(race "
+                                         r"'terran' or 'random'\) of build 'random'; got "
+                                         "race 'zerg'"):
         make("Acropolis", bot=Bot("zerg", "easy"))
     with pytest.raises(ValueError, match="computer plays difficulties"):
         make("Acropolis", bot=Bot("terran", "cheat_insane", "random"))

@@ -10,15 +10,16 @@ the game as the computer sees it (`players.mirror` of the agent's state) it retu
 4. **supply**: a Supply Depot when the free supply is below `Level.supply_margin`, or
    there is none (Barracks need one), and none is being built;
 5. **workers**: an SCV from an idle Command Center, up to `Level.workers`;
-6. **attack**: once `Level.first_attack` game loops have passed and the idle army
-   numbers a wave (`Level.wave`), it attack-moves on the enemy structure nearest it
-   (the computer knows where structures stand, as the game's AI knows the start
-   locations), or the enemy's start location when it knows none;
-7. **Barracks** up to `Level.barracks`, once a Supply Depot stands, and more (up to
+6. **attack**: once `Level.first_attack` game loops have passed and its army numbers a
+   wave (`Level.wave`), all of it attack-moves on the enemy structure nearest it (the
+   computer knows where structures stand, as the game's AI knows the start
+   locations), or the enemy's start location when it knows none; while an attack
+   lasts, new units join it;
+7. **tech** (`Level.tech`): a Tech Lab on the first Barracks, and Stimpack there;
+8. **army**: a Marine (a Marauder at a Tech Lab) at an idle Barracks;
+9. **Barracks** up to `Level.barracks`, once a Supply Depot stands, and more (up to
    `MAX_BARRACKS`) while its minerals reach `Level.bank`;
-8. **gas**: Refineries up to `Level.refineries`, and 3 SCVs to each;
-9. **tech** (`Level.tech`): a Tech Lab on the first Barracks, and Stimpack there;
-10. **army**: a Marine (a Marauder at a Tech Lab) at each idle Barracks;
+10. **gas**: Refineries up to `Level.refineries`, and 3 SCVs to each;
 11. **scouting** (`Level.scout_at`): one SCV walks to the enemy's start location.
 
 Structures go on the first site, nearest home first, of a fixed ring around it away
@@ -100,6 +101,23 @@ LEVELS = {
 }
 """The levels the simulator's computer plays (`Difficulty`'s first, third and fifth are
 VeryEasy, Medium and Hard)."""
+
+
+def opponent(race: str, difficulty, build: str = "random") -> Difficulty:
+    """The difficulty the simulator's computer plays for an opponent asked for as a race
+    name, a difficulty (a `Difficulty`, its number or its name) and a build name: a
+    Terran (or "random", which draws Terran, the one race it plays) of build "random".
+
+    Raises:
+      ValueError: for another race or build, or a difficulty it does not play.
+    """
+    if race not in ("terran", "random") or build != "random":
+        raise ValueError(f"the simulator's computer is a Terran (race 'terran' or 'random') "
+                         f"of build 'random'; got race {race!r}, build {build!r}")
+    if isinstance(difficulty, str):
+        difficulty = Difficulty.__members__.get(difficulty, difficulty)
+    level(difficulty)
+    return Difficulty(difficulty)
 
 
 def level(difficulty) -> Level:
@@ -201,7 +219,14 @@ def command(state: EnvState, lvl: Level, home, enemy_home, buildable) -> RawComm
     jobs = []  # (applies, function, units, point, target)
 
     # 1. Retreat.
-    attacking = army & (units.orders[:, 0] == Order.ATTACK_MOVE)
+    enemy_structures = enemy & jnp.asarray((UNIT_DATA.food == 0)
+                                           & (UNIT_DATA.max_health > 0))[types]
+    centroid = jnp.sum(jnp.where(army[:, None], units.pos, 0.0), 0) / jnp.maximum(
+        jnp.sum(army), 1)
+    target = jnp.where(enemy_structures.any(),
+                       units.pos[_nearest(enemy_structures, units.pos, centroid)], enemy_home)
+    attacking = army & (units.orders[:, 0] == Order.ATTACK_MOVE) & (
+        squared_length(units.order_pos[:, 0] - target) < 1.0)
     retreat = (lvl.retreat > 0) & attacking.any() & (
         jnp.sum(army) < lvl.retreat * lvl.wave)
     jobs.append((retreat, F.Move_screen.id, army, home, NO_TARGET))
@@ -233,16 +258,29 @@ def command(state: EnvState, lvl: Level, home, enemy_home, buildable) -> RawComm
     jobs.append((idle_town.any() & (workers < lvl.workers) & (minerals >= 50)
                  & (free_supply >= 1), F.Train_SCV_quick.id, idle_town, home, NO_TARGET))
     # 6. Attack.
-    enemy_structures = enemy & jnp.asarray((UNIT_DATA.food == 0)
-                                           & (UNIT_DATA.max_health > 0))[types]
-    centroid = jnp.sum(jnp.where(army[:, None], units.pos, 0.0), 0) / jnp.maximum(
-        jnp.sum(army), 1)
-    target = jnp.where(enemy_structures.any(),
-                       units.pos[_nearest(enemy_structures, units.pos, centroid)], enemy_home)
-    wave = (state.game_loop >= lvl.first_attack) & (jnp.sum(army & idle) >= lvl.wave)
-    jobs.append((wave | (attacking.any() & (army & idle).any()), F.Attack_screen.id,
-                 army & idle, target, NO_TARGET))
-    # 7. Barracks.
+    wave = (state.game_loop >= lvl.first_attack) & (jnp.sum(army) >= lvl.wave)
+    joining = jnp.where(wave, army & ~attacking, army & idle)
+    jobs.append(((wave | attacking.any()) & joining.any(), F.Attack_screen.id, joining,
+                 target, NO_TARGET))
+    # 7. Tech.
+    barracks = mine & (types == UnitType.BARRACKS)
+    kind, addon_done = production.addon_kinds(units)
+    bare = barracks & complete & (kind == 0) & (units.queue[:, 0] == 0)
+    labs = jnp.sum(barracks & (kind == production.AddOn.TECH_LAB))
+    jobs.append((lvl.tech & (labs == 0) & bare.any() & (minerals >= 50) & (vespene >= 25),
+                 F.Build_TechLab_quick.id, one(jnp.argmax(bare)), home, NO_TARGET))
+    lab = mine & complete & (types == UnitType.BARRACKS_TECH_LAB) & (units.queue[:, 0] == 0)
+    stimming = production.pending(units, state.researched)[research.Research.STIMPACK]
+    jobs.append((lvl.tech & lab.any() & ~stimming & (minerals >= 100) & (vespene >= 100),
+                 F.Research_Stimpack_quick.id, lab, home, NO_TARGET))
+    # 8. Army.
+    ready = barracks & complete & (units.queue[:, 0] == 0) & ((kind == 0) | addon_done)
+    marauder = ready & (kind == production.AddOn.TECH_LAB)
+    jobs.append((marauder.any() & (minerals >= 100) & (vespene >= 25) & (free_supply >= 2),
+                 F.Train_Marauder_quick.id, one(jnp.argmax(marauder)), home, NO_TARGET))
+    jobs.append((ready.any() & (minerals >= 50) & (free_supply >= 1), F.Train_Marine_quick.id,
+                 one(jnp.argmax(ready)), home, NO_TARGET))
+    # 9. Barracks.
     has_depot = production.has_structure(units, UnitType.SUPPLY_DEPOT)
     rax_fits, rax_site = _site(state, buildable, UnitType.BARRACKS, home, away, addon=True)
     rax = kind_count(UnitType.BARRACKS)
@@ -250,8 +288,7 @@ def command(state: EnvState, lvl: Level, home, enemy_home, buildable) -> RawComm
                                    & (rax < MAX_BARRACKS))
     jobs.append((has_depot & more & (minerals >= 150) & rax_fits & mining.any(),
                  F.Build_Barracks_screen.id, builder(rax_site), rax_site, NO_TARGET))
-    # 8. Gas.
-    barracks = mine & (types == UnitType.BARRACKS)
+    # 10. Gas.
     geysers = units.alive & (types == UnitType.VESPENE_GEYSER)
     geyser = _nearest(geysers, units.pos, home)
     near_geyser = geysers.any() & (squared_length(units.pos[geyser] - home) < 15.0 ** 2)
@@ -265,23 +302,6 @@ def command(state: EnvState, lvl: Level, home, enemy_home, buildable) -> RawComm
     refinery = _nearest(short, units.pos, home)
     jobs.append((short.any() & mining.any(), F.Harvest_Gather_screen.id,
                  builder(units.pos[refinery]), units.pos[refinery], refinery))
-    # 9. Tech.
-    kind, addon_done = production.addon_kinds(units)
-    bare = barracks & complete & (kind == 0) & (units.queue[:, 0] == 0)
-    labs = jnp.sum(barracks & (kind == production.AddOn.TECH_LAB))
-    jobs.append((lvl.tech & (labs == 0) & bare.any() & (minerals >= 50) & (vespene >= 25),
-                 F.Build_TechLab_quick.id, one(jnp.argmax(bare)), home, NO_TARGET))
-    lab = mine & complete & (types == UnitType.BARRACKS_TECH_LAB) & (units.queue[:, 0] == 0)
-    stimming = production.pending(units, state.researched)[research.Research.STIMPACK]
-    jobs.append((lvl.tech & lab.any() & ~stimming & (minerals >= 100) & (vespene >= 100),
-                 F.Research_Stimpack_quick.id, lab, home, NO_TARGET))
-    # 10. Army.
-    ready = barracks & complete & (units.queue[:, 0] == 0) & ((kind == 0) | addon_done)
-    marauder = ready & (kind == production.AddOn.TECH_LAB)
-    jobs.append((marauder.any() & (minerals >= 100) & (vespene >= 25) & (free_supply >= 2),
-                 F.Train_Marauder_quick.id, one(jnp.argmax(marauder)), home, NO_TARGET))
-    jobs.append((ready.any() & (minerals >= 50) & (free_supply >= 1), F.Train_Marine_quick.id,
-                 one(jnp.argmax(ready)), home, NO_TARGET))
     # 11. Scouting.
     scout_now = (lvl.scout_at > 0) & (state.game_loop >= lvl.scout_at) & (
         state.game_loop < lvl.scout_at + 8 * lvl.period)

@@ -37,7 +37,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from sc2jax.environment.engine.computer import LEVELS
+from sc2jax.environment.engine import computer
 from sc2jax.environment.engine.minigames import MAPS, get_map
 from sc2jax.environment.engine.rules.state import Outcome
 from sc2jax.environment.engine.rules.units import UNIT_DATA, UnitType, game_name
@@ -97,13 +97,8 @@ def _computer_of(player_setup, map_name: str) -> int:
     if len(kinds) == 1:
         return 0
     bot = player_setup[1]
-    races = {sc2api.Race.Value("Terran"), sc2api.Race.Value("Random")}
-    builds = {0, BotBuild.random}  # Unset, or random.
-    if bot.race not in races or bot.ai_build not in builds or bot.difficulty not in LEVELS:
-        raise ValueError(f"the simulator's computer is Terran (or Random) of build random "
-                         f"at a difficulty of {[int(d) for d in LEVELS]}; got race "
-                         f"{bot.race}, build {bot.ai_build}, difficulty {bot.difficulty}")
-    return bot.difficulty
+    build = "random" if bot.ai_build == 0 else BotBuild(bot.ai_build).name  # 0: unset.
+    return int(computer.opponent(sc2api.Race.Name(bot.race).lower(), bot.difficulty, build))
 
 
 def _check_replay(replay: Replay) -> None:

@@ -503,9 +503,9 @@ def test_ladder_maps_take_one_computer_the_simulator_plays(server):
     controller = Controller.connect("127.0.0.1", server.port)
     try:
         participant = sc2api.PlayerSetup(type=sc2api.PlayerType.Value("Participant"))
-        for bot, message in ((Bot("zerg", "easy"), "Terran \\(or Random\\) of build random"),
-                             (Bot("terran", "very_hard"), "difficulty 7"),
-                             (Bot("terran", "easy", "rush"), "build 2")):
+        for bot, message in ((Bot("zerg", "easy"), "Terran .* got race 'zerg'"),
+                             (Bot("terran", "very_hard"), "plays difficulties .*, got 7"),
+                             (Bot("terran", "easy", "rush"), "build 'rush'")):
             with pytest.raises(RequestError, match=f"InvalidPlayerSetup.*{message}"):
                 controller.create_game(map_path=LADDER_MAP_PATHS["Triton"],
                                        players=[participant, bot.setup()])
