@@ -114,24 +114,31 @@ def opponent(race: str, difficulty, build: str = "random") -> Difficulty:
     if race not in ("terran", "random") or build != "random":
         raise ValueError(f"the simulator's computer is a Terran (race 'terran' or 'random') "
                          f"of build 'random'; got race {race!r}, build {build!r}")
+    return played(difficulty)
+
+
+def played(difficulty) -> Difficulty:
+    """The `Difficulty` of a difficulty the computer plays (a `Difficulty`, its number or
+    its name).
+
+    Raises:
+      ValueError: for a difficulty it does not play, naming those it does.
+    """
     if isinstance(difficulty, str):
-        difficulty = Difficulty.__members__.get(difficulty, difficulty)
-    level(difficulty)
-    return Difficulty(difficulty)
+        found = Difficulty.__members__.get(difficulty)
+    else:
+        found = next((d for d in LEVELS if not isinstance(difficulty, bool)
+                      and d == difficulty), None)
+    if found not in LEVELS:
+        names = [d.name for d in LEVELS]
+        raise ValueError(f"the simulator's computer plays difficulties {names}, got "
+                         f"{difficulty!r}")
+    return found
 
 
 def level(difficulty) -> Level:
-    """The `Level` of a `Difficulty`.
-
-    Raises:
-      ValueError: for a difficulty the simulator's computer does not play.
-    """
-    try:
-        return LEVELS[Difficulty(difficulty)]
-    except (ValueError, KeyError):
-        names = [d.name for d in LEVELS]
-        raise ValueError(f"the simulator's computer plays difficulties {names}, got "
-                         f"{difficulty!r}") from None
+    """The `Level` of a difficulty (as `played` takes it)."""
+    return LEVELS[played(difficulty)]
 
 
 def _ring(radius_min: float, radius_max: float, spacing: float) -> np.ndarray:

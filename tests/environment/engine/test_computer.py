@@ -45,6 +45,19 @@ def test_levels_grow_stronger():
         Simulator("Acropolis", SMALL, computer=8)
 
 
+def test_the_opponent_asked_for_is_a_terran_or_random_of_build_random():
+    assert computer.opponent("terran", "easy") == Difficulty.easy
+    assert computer.opponent("random", 5, "random") == Difficulty.hard
+    assert computer.opponent("terran", Difficulty.medium) == Difficulty.medium
+    for race, build in (("zerg", "random"), ("terran", "rush"), (None, "random")):
+        with pytest.raises(ValueError, match=f"got race {race!r}, build {build!r}"):
+            computer.opponent(race, "easy", build)
+    with pytest.raises(ValueError, match="plays difficulties .*, got 'harder'"):
+        computer.opponent("terran", "harder")
+    with pytest.raises(ValueError, match="plays difficulties .*, got 'nope'"):
+        computer.opponent("terran", "nope")
+
+
 def test_structure_sites_are_a_ring_nearest_first():
     length = np.linalg.norm(computer.SITES, axis=-1)
     assert (np.diff(length) >= 0).all() and length.min() >= 6 and length.max() <= 16
