@@ -302,7 +302,8 @@ class Simulator:
         `step` (the SC2 API's `RequestAction` then `RequestStep`)."""
         _, step_key = threefry.split(state.key)
 
-        def acts(state: EnvState) -> EnvState:
+        def acts(state: EnvState, actions) -> EnvState:
+            action, other_action = actions
             state = self.act(state, action)
             if other_action is not None:
                 return players.mirror(self.act(players.mirror(state), other_action))
@@ -310,7 +311,7 @@ class Simulator:
                 return players.mirror(self._computer_acts(players.mirror(state)))
             return state
 
-        return self._advance(state.replace(key=step_key), loops, acts)
+        return self._advance(state.replace(key=step_key), loops, acts, (action, other_action))
 
     def _computer_acts(self, seen: EnvState) -> EnvState:
         """The built-in AI's command applied to the game as it sees it."""
@@ -407,10 +408,10 @@ class Simulator:
                 camera=cameras[1]))
         return self.game.on_start(_for_each_player(state, self._explore))
 
-    def _advance(self, state: EnvState, count=None, acts=None) -> EnvState:
-        """Applies the actions (`acts`: state -> state, or None) and runs the step's
-        game loops (`advance`), both on the leading slots in use where the map has slot
-        sizes."""
+    def _advance(self, state: EnvState, count=None, acts=None, actions=None) -> EnvState:
+        """Applies the actions (`acts(state, actions) -> state`, or None) and runs the
+        step's game loops (`advance`), both on the leading slots in use where the map has
+        slot sizes."""
         game = self.game
         buildable = self.renderer.buildable
         two = state.other is not None
@@ -473,12 +474,14 @@ class Simulator:
             heading = jnp.where((new.units.tag == state.units.tag)[:, None], heading, 0.0)
             return new, heading, last | new.units.alive[-1]
 
-        def loops(state: EnvState):
+        def loops(operand):
             """The game loops, and whether the units' last slot stayed free unless it
             was in use from the start (`_on_leading_slots`). A static count is a scan;
-            a run-time one a while loop with the same body."""
+            a run-time one a while loop with the same body. Every traced input comes in
+            `operand` (`smallest_fit`)."""
+            state, actions, count = operand
             start = state.units.alive[-1]
-            state = state if acts is None else acts(state)
+            state = state if acts is None else acts(state, actions)
             state, heading, last = jax.lax.fori_loop(
                 0, self.step_mul if count is None else count, one_loop,
                 (state, jnp.zeros_like(state.units.pos), jnp.bool_(False)))
@@ -488,11 +491,11 @@ class Simulator:
 
         sizes = self.game.slot_sizes if self.use_slot_sizes else None
         if sizes is None:
-            state = loops(state)[0]
+            state = loops((state, actions, count))[0]
         else:
             state = smallest_fit(self.slots_needed(state.units), sizes,
-                                 functools.partial(_on_leading_slots, loops), state,
-                                 checked=True)
+                                 functools.partial(_on_leading_slots, loops),
+                                 (state, actions, count), checked=True)
         state = game.on_step(state.replace(episode_step=state.episode_step + 1))
         if two:  # The other player's selection and groups lose the units that died or
             # were replaced in their slots.
@@ -584,9 +587,10 @@ def _vital(vital, events, p: int):
                               3: vital[3] + events.damage_taken[p]}).reshape(3, 3)
 
 
-def _on_leading_slots(run, size: int, state: EnvState):
-    """`run(state)` with the state's units cut to their first `size` slots; the other
-    slots are kept as they are (the caller knows they are dead).
+def _on_leading_slots(run, size: int, operand):
+    """`run((state, *rest))` for `operand` (state, *rest), with the state's units cut to
+    their first `size` slots; the other slots are kept as they are (the caller knows
+    they are dead).
 
     `run` returns (state, fits). The cut run is the whole run where no unit needs a
     slot past the cut: where one would, every slot of the cut is taken (units are
@@ -594,15 +598,16 @@ def _on_leading_slots(run, size: int, state: EnvState):
     the last slot fills. `fits` is False where it did, unless it was in use from the
     start (then the step can create nothing: `Simulator.slots_needed` leaves room).
     """
+    state, rest = operand[0], tuple(operand[1:])
     if size == state.units.num_slots:
-        return run(state)
+        return run(operand)
     put = lambda full, head: full.at[:size].set(head)  # noqa: E731
     other = state.other
     cut = state.replace(units=leading_slots(state.units, size))
     if other is not None:  # The other player's selection and groups are per slot too.
         cut = cut.replace(other=other.replace(selected=other.selected[:size],
                                               groups=other.groups[:size]))
-    out, fits = run(cut)
+    out, fits = run((cut, *rest))
     out = out.replace(units=jax.tree.map(put, state.units, out.units))
     if other is not None:
         out = out.replace(other=out.other.replace(
