@@ -54,6 +54,14 @@ BLIZZARD_SCORE = -2
 """`Simulator.score_index` for rewards from the Blizzard score."""
 
 
+def check_score_index(score_index) -> None:
+    """Raises ValueError unless `score_index` is one `Simulator` takes."""
+    if isinstance(score_index, bool) or not isinstance(score_index, int) or not (
+            BLIZZARD_SCORE <= score_index < NUM_SCORE_CUMULATIVE):
+        raise ValueError(f"score_index must be -2 (the Blizzard score), -1 (win/loss) or "
+                         f"in [0, {NUM_SCORE_CUMULATIVE - 1}], got {score_index!r}")
+
+
 @struct.dataclass
 class EnvParams:
     """Per-environment parameters (vmappable).
@@ -121,10 +129,7 @@ class Simulator:
         if isinstance(self.step_mul, bool) or not isinstance(self.step_mul, int) or not (
                 1 <= self.step_mul <= 10_000):
             raise ValueError(f"step_mul must be an int in [1, 10000], got {self.step_mul!r}")
-        if not isinstance(self.score_index, int) or not (
-                BLIZZARD_SCORE <= self.score_index < NUM_SCORE_CUMULATIVE):
-            raise ValueError(f"score_index must be -2 (the Blizzard score), -1 (win/loss) or "
-                             f"in [0, {NUM_SCORE_CUMULATIVE - 1}], got {self.score_index!r}")
+        check_score_index(self.score_index)
         if not isinstance(self.use_slot_sizes, bool):
             raise ValueError(f"use_slot_sizes must be a bool, got {self.use_slot_sizes!r}")
         if not 0.0 <= self.discount <= 1.0:

@@ -11,8 +11,7 @@ import dataclasses
 
 from sc2jax.checks import check_non_negative_int, check_positive_int
 from sc2jax.environment.engine.minigames import check_map
-from sc2jax.environment.engine.rules.state import NUM_SCORE_CUMULATIVE
-from sc2jax.environment.engine.simulator import BLIZZARD_SCORE
+from sc2jax.environment.engine.simulator import check_score_index
 from sc2jax.environment.interface.map_names import MINI_GAMES
 from sc2jax.environment.interface.specs import ObservationFormat
 from sc2jax.environment.sc2_env import simulator_computer
@@ -152,11 +151,7 @@ class TrainConfig:
             if self.backend != "simulator":
                 raise ValueError(f"score_index {self.score_index!r} needs backend "
                                  "'simulator' (the real game rewards as `make` does)")
-            if (isinstance(self.score_index, bool) or not isinstance(self.score_index, int)
-                    or not BLIZZARD_SCORE <= self.score_index < NUM_SCORE_CUMULATIVE):
-                raise ValueError(f"score_index must be None, -2 (the Blizzard score), -1 "
-                                 f"(the outcome) or in [0, {NUM_SCORE_CUMULATIVE - 1}], got "
-                                 f"{self.score_index!r}")
+            check_score_index(self.score_index)
         if self.agent not in NETWORKS:
             raise ValueError(f"unknown network {self.agent!r}; allowed: {sorted(NETWORKS)}")
         if self.off_policy_correction not in OFF_POLICY_CORRECTIONS:

@@ -66,8 +66,8 @@ SWEEP = TrainConfig(**{**PERIODIC.to_json(), "eval_episodes": 2})
     (dict(bot=("terran", "easy")), "bot plays the other player of a ladder map"),
     (dict(map_name="Acropolis", bot=("zerg", "easy")), "the simulator's computer is a Terran"),
     (dict(map_name="Acropolis", bot=("terran", "cheat_insane")), "the simulator's computer"),
-    (dict(score_index=-3), r"score_index must be None, -2 \(the Blizzard score\)"),
-    (dict(score_index=True), "score_index must be None"),
+    (dict(score_index=-3), r"score_index must be -2 \(the Blizzard score\), -1"),
+    (dict(score_index=True), "score_index must be -2"),
     (dict(backend="sc2", score_index=-1), "score_index -1 needs backend 'simulator'"),
 ])
 def test_config_rejects_bad_values(change, message):
