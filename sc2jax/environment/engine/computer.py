@@ -88,7 +88,7 @@ LEVELS = {
     Difficulty.very_easy: Level(workers=12, barracks=1, refineries=0, tech=False,
                                 supply_margin=1, wave=4, first_attack=int(8 * LOOPS_PER_MINUTE),
                                 retreat=0.0, period=6, scout_at=0, bank=0),
-    Difficulty.easy: Level(workers=14, barracks=1, refineries=0, tech=False, supply_margin=2,
+    Difficulty.easy: Level(workers=14, barracks=2, refineries=0, tech=False, supply_margin=2,
                            wave=6, first_attack=int(7 * LOOPS_PER_MINUTE), retreat=0.0,
                            period=4, scout_at=int(2 * LOOPS_PER_MINUTE), bank=0),
     Difficulty.medium: Level(workers=19, barracks=3, refineries=1, tech=False,
