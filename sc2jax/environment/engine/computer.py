@@ -124,16 +124,16 @@ def played(difficulty) -> Difficulty:
     Raises:
       ValueError: for a difficulty it does not play, naming those it does.
     """
+    found = None
     if isinstance(difficulty, str):
         found = Difficulty.__members__.get(difficulty)
-    else:
-        found = next((d for d in LEVELS if not isinstance(difficulty, bool)
-                      and d == difficulty), None)
+    elif isinstance(difficulty, (int, np.integer)) and not isinstance(difficulty, bool):
+        found = int(difficulty)
     if found not in LEVELS:
         names = [d.name for d in LEVELS]
         raise ValueError(f"the simulator's computer plays difficulties {names}, got "
                          f"{difficulty!r}")
-    return found
+    return Difficulty(found)
 
 
 def level(difficulty) -> Level:
@@ -225,7 +225,7 @@ def command(state: EnvState, lvl: Level, home, enemy_home, buildable) -> RawComm
 
     jobs = []  # (applies, function, units, point, target)
 
-    # 1. Retreat.
+    # 1. Retreat (from an attack on the enemy structure nearest the army).
     enemy_structures = enemy & jnp.asarray((UNIT_DATA.food == 0)
                                            & (UNIT_DATA.max_health > 0))[types]
     centroid = jnp.sum(jnp.where(army[:, None], units.pos, 0.0), 0) / jnp.maximum(
