@@ -59,11 +59,13 @@ def pytest_unconfigure(config):
 
 # Files that each take a worker a minute or more, longest first (measured on 2 cores,
 # 2026-11-30, summed over their tests: about 175, 115, 115, 100, 100, 100, 95, 95, 80,
-# 75 and 60 s).
+# 75 and 60 s; test_computer.py, test_melee.py and test_production.py about 60 s each
+# on 2026-12-01, the first in one test).
 _LONGEST_FIRST = ("test_data_parallel.py", "test_cloning.py", "test_evaluation.py",
                   "test_doc_examples.py", "test_actor_learner.py", "test_training.py",
                   "test_contract.py", "test_loopback.py", "test_mechanics.py",
-                  "test_learning.py", "test_contract_vmap.py")
+                  "test_learning.py", "test_computer.py", "test_contract_vmap.py",
+                  "test_melee.py", "test_production.py")
 
 
 def pytest_collection_modifyitems(config, items):

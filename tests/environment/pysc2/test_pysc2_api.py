@@ -154,7 +154,7 @@ def test_observations_are_named_and_the_specs_are_pysc2s():
     (dict(map_name="Acropolis", players=[sc2_env.Agent(sc2_env.Race.terran),
                                          sc2_env.Bot(sc2_env.Race.terran, 1,
                                                      sc2_env.BotBuild.rush)]),
-     "Terran of build 'random'"),
+     "of build 'random'; got race 'terran', build 'rush'"),
     (dict(map_name="Acropolis", players=[sc2_env.Agent(sc2_env.Race.terran)] * 3),
      "its ladder maps with one Agent, two, or an Agent then a Bot"),
     (dict(players=None), "players is required"),
