@@ -45,8 +45,6 @@ def _simulator(use_slot_sizes: bool = True) -> Simulator:
 
 def _with_army(sim: Simulator, state, count: int):
     """Both players get `count` idle Marines in rows beside their Command Center."""
-    if count == 0:
-        return state
     units = state.units
     first = int(slots_in_use(units.alive))
     homes = np.asarray(sim.game.start_cameras(state.map_state))

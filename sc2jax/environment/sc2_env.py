@@ -400,8 +400,8 @@ def make(map_name: str, screen_size: specs.Size = 64, minimap_size: specs.Size =
         raise ValueError("sc2path applies to backend='sc2' only")
     check_map(map_name)
     computer = simulator_computer(bot, map_name)
-    if map_name not in MAPS and not score_index:
-        score_index = -1  # PySC2's default on ladder maps: the outcome.
+    if not score_index and map_name not in MAPS:
+        score_index = default_score_index(map_name)  # PySC2's on ladder maps: the outcome.
     use_compilation_cache()
     fmt = specs.ObservationFormat(
         screen_size=screen_size, minimap_size=minimap_size,
@@ -417,6 +417,12 @@ def make(map_name: str, screen_size: specs.Size = 64, minimap_size: specs.Size =
         return SC2Env(sim, seed, ensure_available_actions, game_steps_per_episode)
     return BatchedSC2Env(sim, num_envs, seed, ensure_available_actions, game_steps_per_episode,
                          num_devices)
+
+
+def default_score_index(map_name: str) -> int:
+    """PySC2's default reward on a map: the mini-games' score (score_index 0), the
+    outcome (-1) on any other map."""
+    return 0 if map_name in MAPS else -1
 
 
 def simulator_computer(bot, map_name: str) -> int:
@@ -461,6 +467,7 @@ def _make_game(map_name, screen_size, minimap_size, step_mul, num_envs, seed, sc
                    max_units=max_units, bot=bot, step_mul=step_mul,
                    game_steps_per_episode=game_steps_per_episode,
                    # On other maps the default is PySC2's: the outcome.
-                   score_index=score_index if map_name in MAPS or score_index else -1,
+                   score_index=score_index if map_name in MAPS or score_index
+                   else default_score_index(map_name),
                    score_multiplier=score_multiplier, discount=discount,
                    ensure_available_actions=ensure_available_actions, random_seed=seed)

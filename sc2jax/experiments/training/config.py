@@ -12,9 +12,8 @@ import dataclasses
 from sc2jax.checks import check_non_negative_int, check_positive_int
 from sc2jax.environment.engine.minigames import check_map
 from sc2jax.environment.engine.simulator import check_score_index
-from sc2jax.environment.interface.map_names import MINI_GAMES
 from sc2jax.environment.interface.specs import ObservationFormat
-from sc2jax.environment.sc2_env import simulator_computer
+from sc2jax.environment.sc2_env import default_score_index, simulator_computer
 from sc2jax.environment.sc2api.game_env import Bot
 from sc2jax.experiments.training.actor import function_mask
 from sc2jax.losses.learner_loss import OFF_POLICY_CORRECTIONS
@@ -144,7 +143,7 @@ class TrainConfig:
                 raise ValueError(f"bot must be (race, difficulty[, build]), got {self.bot!r}")
             object.__setattr__(self, "bot", tuple(self.bot))
             if self.backend == "simulator":
-                simulator_computer(self.opponent(), self.map_name)
+                self.computer()
             else:
                 self.opponent().setup()  # checks the race, difficulty and build
         if self.score_index is not None:
@@ -214,11 +213,15 @@ class TrainConfig:
         """The `game_env.Bot` of `bot`."""
         return None if self.bot is None else Bot(*self.bot)
 
+    def computer(self) -> int:
+        """The `Difficulty` of the simulator's computer that `bot` asks for (0: none)."""
+        return simulator_computer(self.opponent(), self.map_name)
+
     def reward_index(self) -> int:
         """The simulator's `score_index` of `score_index` (None: the map's default)."""
         if self.score_index is not None:
             return self.score_index
-        return 0 if self.map_name in MINI_GAMES else -1
+        return default_score_index(self.map_name)
 
     def observation_format(self) -> ObservationFormat:
         return ObservationFormat(screen_size=self.screen_size, minimap_size=self.minimap_size,

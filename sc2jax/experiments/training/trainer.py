@@ -49,7 +49,7 @@ from sc2jax.environment.engine.compiled import simulator
 from sc2jax.environment.engine.simulator import Simulator
 from sc2jax.environment.engine.xla.devices import first_devices
 from sc2jax.environment.interface import specs
-from sc2jax.environment.sc2_env import make, simulator_computer
+from sc2jax.environment.sc2_env import make
 from sc2jax.environment.sc2api.game_env import GameEnvBatch
 from sc2jax.experiments.reporting.metrics_log import CsvLog, Progress, read_csv
 from sc2jax.experiments.reporting.plots import plot_learning_curves
@@ -164,8 +164,7 @@ def build(config: TrainConfig) -> Agent:
 def _build(config: TrainConfig) -> Agent:
     sim = simulator(config.map_name, config.observation_format(), config.step_mul,
                     config.reward_index(), 1.0, float(config.discount), False,
-                    computer=simulator_computer(config.opponent(), config.map_name)
-                    ) if config.backend == "simulator" else None
+                    computer=config.computer()) if config.backend == "simulator" else None
     network = make_network(config.agent, config.observation_format(),
                            dtype=config.compute_dtype)
     loss = make_actor_critic_loss(
