@@ -28,7 +28,7 @@ from sc2jax.environment.interface.dense import zeros
 IDLE, RANDOM, SCRIPTED = 0, 1, 2
 RUSH = computer.Level(workers=14, barracks=2, refineries=0, tech=False, supply_margin=3,
                       wave=5, first_attack=int(3.5 * computer.LOOPS_PER_MINUTE), retreat=0.0,
-                      period=1, scout_at=0, bank=300)
+                      period=1, scout_at=0, bank=300, expand_at=0)
 """The scripted rush: 2 Barracks (more while 300 minerals pile up), 14 SCVs, and from
 3.5 minutes on waves of 5 Marines that the Marines trained meanwhile join."""
 
@@ -67,11 +67,13 @@ def play(sim: Simulator, key, kind, mine: computer.Level, theirs: computer.Level
         state, ts, key, steps = carry
         key, act_key = jax.random.split(key)
         start, other_start = sim.game.start_cameras(state.map_state)
+        natural, other_natural = sim.game.naturals(state.map_state)
         if theirs is not None:  # Else the simulator's step has its computer act.
             seen = players.mirror(state)
-            state = players.mirror(apply(seen, computer.command(seen, theirs, other_start,
-                                                                start, buildable)))
-        scripted = apply(state, computer.command(state, mine, start, other_start, buildable))
+            state = players.mirror(apply(seen, computer.command(
+                seen, theirs, other_start, start, other_natural, buildable)))
+        scripted = apply(state, computer.command(state, mine, start, other_start, natural,
+                                                 buildable))
         state = jax.tree.map(lambda a, b: jnp.where(kind == SCRIPTED, a, b), scripted, state)
         randomly = random_action(act_key, ts.observation["available_actions_mask"],
                                  sim.fmt.types)

@@ -1,32 +1,38 @@
 """The simulator's built-in AI: a scripted Terran player for melee maps, at a difficulty.
 
-`command(state, level, home, enemy_home, buildable)` is a pure, jittable policy: from
+`command(state, level, home, enemy_home, natural, buildable)` is a pure, jittable policy: from
 the game as the computer sees it (`players.mirror` of the agent's state) it returns one
 `actions.RawCommand` an agent step, the first of these jobs that applies:
 
 1. **retreat**: an attack whose army fell below `Level.retreat` of a wave goes home;
-2. **defence**: idle army units attack enemies within `DEFENCE_RADIUS` of home;
-3. **mining**: idle SCVs gather from the mineral field nearest home;
+2. **defence**: idle army units attack enemies within `DEFENCE_RADIUS` of home (or of
+   the natural expansion, once it stands);
+3. **mining**: idle SCVs gather at the base (home, or the natural expansion once its
+   Command Center stands) with fewer of them per mineral field; once the natural
+   stands, SCVs beyond 2 a field at home move there;
 4. **supply**: a Supply Depot when the free supply is below `Level.supply_margin`, or
    there is none (Barracks need one), and none is being built;
-5. **workers**: an SCV from an idle Command Center, up to `Level.workers`;
-6. **attack**: once `Level.first_attack` game loops have passed and its army numbers a
+5. **expansion** (`Level.expand_at`): a Command Center at the natural expansion (the
+   base nearest home, `Melee.naturals`); from then until an SCV is on its way, the
+   computer saves its minerals for it (no tech, army, Barracks or gas);
+6. **workers**: an SCV from each idle Command Center, up to `Level.workers`;
+7. **attack**: once `Level.first_attack` game loops have passed and its army numbers a
    wave (`Level.wave`), all of it attack-moves on the enemy structure nearest it (the
    computer knows where structures stand, as the game's AI knows the start
    locations), or the enemy's start location when it knows none; while an attack
    lasts, new units join it;
-7. **tech** (`Level.tech`): a Tech Lab on the first Barracks, and Stimpack there;
-8. **army**: a Marine (a Marauder at a Tech Lab) at an idle Barracks;
-9. **Barracks** up to `Level.barracks`, once a Supply Depot stands, and more (up to
+8. **tech** (`Level.tech`): a Tech Lab on the first Barracks, and Stimpack there;
+9. **army**: a Marine (a Marauder at a Tech Lab) at an idle Barracks;
+10. **Barracks** up to `Level.barracks`, once a Supply Depot stands, and more (up to
    `MAX_BARRACKS`) while its minerals reach `Level.bank`;
-10. **gas**: Refineries up to `Level.refineries`, and 3 SCVs to each;
-11. **scouting** (`Level.scout_at`): one SCV walks to the enemy's start location.
+11. **gas**: Refineries up to `Level.refineries`, and 3 SCVs to each;
+12. **scouting** (`Level.scout_at`): one SCV walks to the enemy's start location.
 
 Structures go on the first site, nearest home first, of a fixed ring around it away
 from the mineral line, where the structure fits (`production.placement`); a Barracks'
 site also leaves its add-on room. A level acts on every `Level.period`-th agent step
-(its reaction time); the stronger levels train more workers, build more Barracks, tech,
-attack later with more and retreat. Expansions are not built yet (docs/full_game.md).
+(its reaction time); the stronger levels expand, train more workers, build more
+Barracks, tech, attack with more and retreat.
 """
 
 from __future__ import annotations
@@ -49,6 +55,10 @@ F = FUNCTIONS
 DEFENCE_RADIUS = 25.0
 """World units from home within which enemies draw the computer's idle army."""
 GAS_WORKERS = 3
+FIELD_WORKERS = 2
+"""SCVs a mineral field takes before a base counts as saturated."""
+BASE_RADIUS = 12.0
+"""World units from a Command Center site within which a base's mineral fields lie."""
 MAX_BARRACKS = 8
 
 
@@ -68,6 +78,7 @@ class Level(NamedTuple):
       scout_at: the game loop an SCV scouts at (0: never).
       bank: minerals at which it builds Barracks beyond `barracks`, up to
         `MAX_BARRACKS` (0: never; the weak levels float their money).
+      expand_at: the game loop from which it takes its natural expansion (0: never).
     """
 
     workers: int
@@ -81,23 +92,27 @@ class Level(NamedTuple):
     period: int
     scout_at: int
     bank: int
+    expand_at: int
 
 
 LOOPS_PER_MINUTE = 22.4 * 60
 LEVELS = {
     Difficulty.very_easy: Level(workers=12, barracks=1, refineries=0, tech=False,
                                 supply_margin=1, wave=4, first_attack=int(8 * LOOPS_PER_MINUTE),
-                                retreat=0.0, period=6, scout_at=0, bank=0),
+                                retreat=0.0, period=6, scout_at=0, bank=0,
+                                expand_at=0),
     Difficulty.easy: Level(workers=14, barracks=2, refineries=0, tech=False, supply_margin=2,
                            wave=6, first_attack=int(7 * LOOPS_PER_MINUTE), retreat=0.0,
-                           period=4, scout_at=int(2 * LOOPS_PER_MINUTE), bank=0),
-    Difficulty.medium: Level(workers=19, barracks=3, refineries=1, tech=False,
+                           period=4, scout_at=int(2 * LOOPS_PER_MINUTE), bank=0,
+                           expand_at=0),
+    Difficulty.medium: Level(workers=30, barracks=3, refineries=1, tech=False,
                              supply_margin=4, wave=10, first_attack=int(6 * LOOPS_PER_MINUTE),
                              retreat=0.3, period=2, scout_at=int(2 * LOOPS_PER_MINUTE),
-                             bank=600),
-    Difficulty.hard: Level(workers=22, barracks=4, refineries=2, tech=True, supply_margin=6,
+                             bank=600, expand_at=int(5 * LOOPS_PER_MINUTE)),
+    Difficulty.hard: Level(workers=38, barracks=4, refineries=2, tech=True, supply_margin=6,
                            wave=16, first_attack=int(7 * LOOPS_PER_MINUTE), retreat=0.4,
-                           period=1, scout_at=int(1.5 * LOOPS_PER_MINUTE), bank=400),
+                           period=1, scout_at=int(1.5 * LOOPS_PER_MINUTE), bank=400,
+                           expand_at=int(4 * LOOPS_PER_MINUTE)),
 }
 """The levels the simulator's computer plays (`Difficulty`'s first, third and fifth are
 VeryEasy, Medium and Hard)."""
@@ -183,7 +198,8 @@ def _nearest(mask, pos, point):
     return jnp.argmin(jnp.where(mask, squared_length(pos - point), jnp.inf)).astype(jnp.int32)
 
 
-def command(state: EnvState, lvl: Level, home, enemy_home, buildable) -> RawCommand:
+def command(state: EnvState, lvl: Level, home, enemy_home, natural,
+            buildable) -> RawCommand:
     """The computer's command this agent step (no_op on the steps between its
     `Level.period`).
 
@@ -192,6 +208,7 @@ def command(state: EnvState, lvl: Level, home, enemy_home, buildable) -> RawComm
       lvl: its `Level`.
       home: float32[2] its start location.
       enemy_home: float32[2] the enemy's start location.
+      natural: float32[2] its natural expansion's Command Center site.
       buildable: bool[H, W] the map's buildable cells.
     """
     units = state.units
@@ -207,8 +224,7 @@ def command(state: EnvState, lvl: Level, home, enemy_home, buildable) -> RawComm
                                       & (units.order_type == t), axis=1)
     kind_count = lambda t: jnp.sum((mine & (types == t)) | ordered(t))  # noqa: E731
     fields = units.alive & (types == UnitType.MINERAL_FIELD) & (units.contents > 0)
-    field = _nearest(fields, units.pos, home)
-    home_fields = fields & (squared_length(units.pos - home) < 12.0 ** 2)
+    home_fields = fields & (squared_length(units.pos - home) < BASE_RADIUS ** 2)
     centre = jnp.sum(jnp.where(home_fields[:, None], units.pos, 0.0), 0) / jnp.maximum(
         jnp.sum(home_fields), 1)
     towards = centre - home
@@ -219,6 +235,22 @@ def command(state: EnvState, lvl: Level, home, enemy_home, buildable) -> RawComm
     safe_gathered = jnp.clip(gathered, 0, n - 1)
     mining = (scv & (units.orders[:, 0] == Order.GATHER) & (units.cargo == 0)
               & (types[safe_gathered] == UnitType.MINERAL_FIELD))
+    town_type = jnp.isin(types, jnp.asarray([UnitType.COMMAND_CENTER,
+                                             UnitType.ORBITAL_COMMAND], jnp.int32))
+    at_natural = mine & town_type & (squared_length(units.pos - natural) < 1.0)
+    expanded = jnp.any(at_natural & complete)
+    natural_fields = fields & (squared_length(units.pos - natural) < BASE_RADIUS ** 2)
+    # Each base's mineral SCVs (a harvester's field is its `home`), per field.
+    harvesting = scv & ((units.orders[:, 0] == Order.GATHER) | (units.orders[:, 0] == Order.RETURN))
+    field_of = jnp.clip(units.home, 0, n - 1)
+    home_miners = harvesting & home_fields[field_of] & (units.home >= 0)
+    natural_miners = harvesting & natural_fields[field_of] & (units.home >= 0)
+    room = lambda miners, at: FIELD_WORKERS * jnp.sum(at) - jnp.sum(miners)  # noqa: E731
+    to_natural = expanded & natural_fields.any() & (
+        jnp.sum(natural_miners) * jnp.maximum(jnp.sum(home_fields), 1)
+        < jnp.sum(home_miners) * jnp.maximum(jnp.sum(natural_fields), 1))
+    base = jnp.where(to_natural, natural, home)
+    field = _nearest(fields, units.pos, base)
 
     def one(slot):
         return jnp.arange(n) == slot
@@ -238,13 +270,19 @@ def command(state: EnvState, lvl: Level, home, enemy_home, buildable) -> RawComm
         jnp.sum(army) < lvl.retreat * lvl.wave)
     jobs.append((retreat, F.Move_screen.id, army, home, NO_TARGET))
     # 2. Defence.
-    near = enemy & (squared_length(units.pos - home) < DEFENCE_RADIUS ** 2)
+    near = enemy & ((squared_length(units.pos - home) < DEFENCE_RADIUS ** 2)
+                    | (expanded & (squared_length(units.pos - natural) < DEFENCE_RADIUS ** 2)))
     intruder = _nearest(near, units.pos, home)
     jobs.append((near.any() & (army & idle).any(), F.Attack_screen.id, army & idle,
                  units.pos[intruder], NO_TARGET))
     # 3. Idle SCVs mine.
     jobs.append((fields.any() & (scv & idle).any(), F.Harvest_Gather_screen.id, scv & idle,
                  units.pos[field], field))
+    moves = jnp.minimum(-room(home_miners, home_fields), room(natural_miners, natural_fields))
+    movers = home_miners & (jnp.cumsum(home_miners) <= moves)
+    natural_field = _nearest(natural_fields, units.pos, natural)
+    jobs.append((expanded & (moves > 0), F.Harvest_Gather_screen.id, movers,
+                 units.pos[natural_field], natural_field))
     # 4. Supply.
     depot_building = jnp.any(mine & (types == UnitType.SUPPLY_DEPOT) & ~complete) | jnp.any(
         ordered(UnitType.SUPPLY_DEPOT))
@@ -256,50 +294,59 @@ def command(state: EnvState, lvl: Level, home, enemy_home, buildable) -> RawComm
     jobs.append((short_supply & (production.food_cap(units) < 200) & ~depot_building
                  & (minerals >= 100) & depot_fits & mining.any(),
                  F.Build_SupplyDepot_screen.id, builder(depot_site), depot_site, NO_TARGET))
-    # 5. Workers.
-    town = mine & complete & jnp.isin(types, jnp.asarray(
-        [UnitType.COMMAND_CENTER, UnitType.ORBITAL_COMMAND], jnp.int32))
+    # 5. Expansion, saving for it once due.
+    expanding = jnp.any(at_natural) | jnp.any(ordered(UnitType.COMMAND_CENTER))
+    cc_fits = production.placement(units, buildable, jnp.int32(UnitType.COMMAND_CENTER),
+                                   natural) == 0
+    saving = (lvl.expand_at > 0) & (state.game_loop >= lvl.expand_at) & ~expanding & cc_fits
+    jobs.append((saving & (minerals >= 400) & mining.any(), F.Build_CommandCenter_screen.id,
+                 builder(natural), natural, NO_TARGET))
+    # 6. Workers.
+    town = mine & complete & town_type
     idle_town = town & (units.queue[:, 0] == 0)
     workers = jnp.sum(mine & (types == UnitType.SCV)) + jnp.sum(
         jnp.where(town[:, None], units.queue == UnitType.SCV, False))
     jobs.append((idle_town.any() & (workers < lvl.workers) & (minerals >= 50)
                  & (free_supply >= 1), F.Train_SCV_quick.id, idle_town, home, NO_TARGET))
-    # 6. Attack.
+    # 7. Attack.
     wave = (state.game_loop >= lvl.first_attack) & (jnp.sum(army) >= lvl.wave)
     joining = jnp.where(wave, army & ~attacking, army & idle)
     jobs.append(((wave | attacking.any()) & joining.any(), F.Attack_screen.id, joining,
                  target, NO_TARGET))
-    # 7. Tech.
+    # 8. Tech.
     barracks = mine & (types == UnitType.BARRACKS)
     kind, addon_done = production.addon_kinds(units)
     bare = barracks & complete & (kind == 0) & (units.queue[:, 0] == 0)
     labs = jnp.sum(barracks & (kind == production.AddOn.TECH_LAB))
-    jobs.append((lvl.tech & (labs == 0) & bare.any() & (minerals >= 50) & (vespene >= 25),
+    jobs.append((lvl.tech & ~saving & (labs == 0) & bare.any() & (minerals >= 50)
+                 & (vespene >= 25),
                  F.Build_TechLab_quick.id, one(jnp.argmax(bare)), home, NO_TARGET))
     lab = mine & complete & (types == UnitType.BARRACKS_TECH_LAB) & (units.queue[:, 0] == 0)
     stimming = production.pending(units, state.researched)[research.Research.STIMPACK]
-    jobs.append((lvl.tech & lab.any() & ~stimming & (minerals >= 100) & (vespene >= 100),
+    jobs.append((lvl.tech & ~saving & lab.any() & ~stimming & (minerals >= 100)
+                 & (vespene >= 100),
                  F.Research_Stimpack_quick.id, lab, home, NO_TARGET))
-    # 8. Army.
-    ready = barracks & complete & (units.queue[:, 0] == 0) & ((kind == 0) | addon_done)
+    # 9. Army.
+    ready = (barracks & complete & (units.queue[:, 0] == 0) & ((kind == 0) | addon_done)
+             & ~saving)
     marauder = ready & (kind == production.AddOn.TECH_LAB)
     jobs.append((marauder.any() & (minerals >= 100) & (vespene >= 25) & (free_supply >= 2),
                  F.Train_Marauder_quick.id, one(jnp.argmax(marauder)), home, NO_TARGET))
     jobs.append((ready.any() & (minerals >= 50) & (free_supply >= 1), F.Train_Marine_quick.id,
                  one(jnp.argmax(ready)), home, NO_TARGET))
-    # 9. Barracks.
+    # 10. Barracks.
     has_depot = production.has_structure(units, UnitType.SUPPLY_DEPOT)
     rax_fits, rax_site = _site(state, buildable, UnitType.BARRACKS, home, away, addon=True)
     rax = kind_count(UnitType.BARRACKS)
     more = (rax < lvl.barracks) | ((lvl.bank > 0) & (minerals >= lvl.bank)
                                    & (rax < MAX_BARRACKS))
-    jobs.append((has_depot & more & (minerals >= 150) & rax_fits & mining.any(),
+    jobs.append((has_depot & more & ~saving & (minerals >= 150) & rax_fits & mining.any(),
                  F.Build_Barracks_screen.id, builder(rax_site), rax_site, NO_TARGET))
-    # 10. Gas.
+    # 11. Gas.
     geysers = units.alive & (types == UnitType.VESPENE_GEYSER)
     geyser = _nearest(geysers, units.pos, home)
     near_geyser = geysers.any() & (squared_length(units.pos[geyser] - home) < 15.0 ** 2)
-    jobs.append((barracks.any() & (kind_count(UnitType.REFINERY) < lvl.refineries)
+    jobs.append((barracks.any() & ~saving & (kind_count(UnitType.REFINERY) < lvl.refineries)
                  & near_geyser & (minerals >= 75) & mining.any(), F.Build_Refinery_screen.id,
                  builder(units.pos[geyser]), units.pos[geyser], geyser))
     refineries = mine & complete & (types == UnitType.REFINERY)
@@ -309,7 +356,7 @@ def command(state: EnvState, lvl: Level, home, enemy_home, buildable) -> RawComm
     refinery = _nearest(short, units.pos, home)
     jobs.append((short.any() & mining.any(), F.Harvest_Gather_screen.id,
                  builder(units.pos[refinery]), units.pos[refinery], refinery))
-    # 11. Scouting.
+    # 12. Scouting.
     scout_now = (lvl.scout_at > 0) & (state.game_loop >= lvl.scout_at) & (
         state.game_loop < lvl.scout_at + 8 * lvl.period)
     jobs.append((scout_now & mining.any(), F.Move_screen.id, builder(enemy_home), enemy_home,

@@ -324,7 +324,8 @@ class Simulator:
     def _computer_acts(self, seen: EnvState) -> EnvState:
         """The built-in AI's command applied to the game as it sees it."""
         start, other_start = self.game.start_cameras(seen.map_state)
-        command = computer.command(seen, self.computer_level, other_start, start,
+        _, natural = self.game.naturals(seen.map_state)
+        command = computer.command(seen, self.computer_level, other_start, start, natural,
                                    self.renderer.buildable)
         return apply_raw(seen, command, self.renderer, self.card_table,
                          economy=self.game.has_production)

@@ -92,3 +92,11 @@ def test_a_game_between_the_hard_script_and_the_very_easy_computer():
     assert int(state.score_cumulative[ScoreCumulative.collected_vespene]) > 0
     assert int(state.other.score_cumulative[ScoreCumulative.spent_minerals]) >= 250
     assert int(state.game_loop) < 16_000
+    # The Hard script took its natural expansion, and SCVs mine there.
+    natural = np.asarray(sim.game.naturals(state.map_state)[0])
+    mine = units.alive & (units.owner == Owner.SELF)
+    there = np.linalg.norm(np.asarray(units.pos) - natural, axis=-1) < 1.0
+    assert (mine & units.complete & (units.type == UnitType.COMMAND_CENTER) & there).any()
+    fields = np.linalg.norm(np.asarray(units.pos) - natural, axis=-1) < computer.BASE_RADIUS
+    scv = mine & (units.type == UnitType.SCV)
+    assert (scv & (units.home >= 0) & fields[np.clip(units.home, 0, None)]).sum() >= 8

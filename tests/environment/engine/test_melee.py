@@ -19,7 +19,7 @@ from sc2jax.environment import FUNCTIONS, make
 from sc2jax.environment.engine import ladder
 from sc2jax.environment.engine.compiled import compiled_both, simulator
 from sc2jax.environment.engine.minigames import get_map, melee
-from sc2jax.environment.engine.rules import players
+from sc2jax.environment.engine.rules import players, production
 from sc2jax.environment.engine.rules.state import Outcome, Owner
 from sc2jax.environment.engine.rules.units import UNIT_DATA, UnitType
 from sc2jax.environment.engine.simulator import Simulator
@@ -110,6 +110,30 @@ def test_every_ladder_map_is_playable_with_its_layout(name):
         assert geometry.buildable[np.ix_(rows, cols)].all(), (name, x, y)
     assert game.players == 2 and game.fog and game.timer_outcome == Outcome.TIE
     assert game.time_limit_loops == 28_800  # PySC2's ladder maps' 30 minutes.
+    # The bases: each start location is a base site, exactly (by the game's town-hall
+    # placement rule, which no start location was fitted to); each base has its 8
+    # mineral fields and 2 geysers (7 on King's Cove's two gold bases), and the
+    # natural is another base, 20 to 45 units from home.
+    bases = game.bases
+    starts = np.asarray(layout.start_locations, np.float32)
+    assert (np.linalg.norm(bases[:, None] - starts[None], axis=-1).min(0) == 0).all()
+    points = np.array([r[:2] for r in layout.minerals + layout.geysers], np.float32)
+    sizes = np.bincount(melee.resource_groups(points))
+    assert set(sizes) <= {7, 9, 10} and len(bases) <= len(sizes), sizes
+    naturals = np.asarray(game.naturals(jnp.int32(0)))
+    assert (20 <= np.linalg.norm(naturals - starts, axis=-1)).all()
+    assert (np.linalg.norm(naturals - starts, axis=-1) <= 45).all()
+
+
+def test_a_command_center_keeps_its_clearance_from_resources_but_on_the_diagonal():
+    cc, field = np.float32([5, 5]), np.float32([[2, 1]])
+    near = lambda dx, dy: bool(production.near_resources(  # noqa: E731
+        np.float32([0.0, 0.0]), cc, np.float32([[dx, dy]]), field)[0])
+    # Gaps across (x) and along (y) between the footprints: 3.5 + gap, 3 + gap.
+    assert near(3.5 + 2.9, 0.0) and not near(3.5 + 3.0, 0.0)
+    assert near(0.0, 3.0 + 2.9) and not near(0.0, 3.0 + 3.0)
+    assert not near(3.5 + 2.0, 3.0 + 2.0)  # Cut corner: 2 cells off both ways.
+    assert near(3.5 + 1.9, 3.0 + 2.5) and near(3.5 + 2.5, 3.0 + 1.9)
 
 
 def test_close_holes_fills_gaps_and_keeps_the_outline():

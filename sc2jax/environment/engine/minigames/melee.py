@@ -20,6 +20,7 @@ show as the plain Mineral Field and Vespene Geyser. Rocks and towers are left ou
 from __future__ import annotations
 
 import dataclasses
+import functools
 import math
 import re
 
@@ -29,7 +30,7 @@ import numpy as np
 
 from sc2jax.environment.engine import ladder
 from sc2jax.environment.engine.minigames.base import MiniGame
-from sc2jax.environment.engine.rules import players, score
+from sc2jax.environment.engine.rules import players, production, score
 from sc2jax.environment.engine.rules.geometry import MapGeometry
 from sc2jax.environment.engine.rules.state import EnvState, Outcome, Owner, Units, place
 from sc2jax.environment.engine.rules.units import UNIT_DATA, Attribute, UnitType, terran_types
@@ -75,6 +76,64 @@ def close_holes(cells: np.ndarray, radius: int = 1) -> np.ndarray:
     padded = np.pad(cells, radius + 1)
     closed = sweep(sweep(padded, np.logical_or), np.logical_and)
     return closed[radius + 1:-radius - 1, radius + 1:-radius - 1]
+
+
+BASE_LINK = 9.0
+"""World units within which resources belong to one base (single linkage): a base's
+mineral fields and geysers lie within a few units of each other, bases 20 or more
+apart."""
+BASE_REACH = 14
+"""Cells from a base's resources' centre that `base_sites` looks for its site within."""
+
+
+def resource_groups(points: np.ndarray, link: float = BASE_LINK) -> np.ndarray:
+    """int32[M]: each resource's base (points float32[M, 2]): the groups linked by
+    distances of at most `link`, numbered by their first resource."""
+    label = np.full(len(points), -1, np.int32)
+    for seed in range(len(points)):
+        if label[seed] >= 0:
+            continue
+        label[seed], stack = label.max() + 1, [seed]
+        while stack:
+            near = np.linalg.norm(points - points[stack.pop()], axis=1) <= link
+            fresh = np.flatnonzero(near & (label < 0))
+            label[fresh] = label[seed]
+            stack.extend(fresh)
+    return label
+
+
+def base_sites(layout: ladder.MapLayout, buildable: np.ndarray) -> np.ndarray:
+    """float32[B, 2]: where each base's Command Center goes, as the game places a town
+    hall: of the sites whose 5 x 5 footprint lies on buildable cells (bool[H, W], rows
+    top first) and keeps its clearance from every resource
+    (`production.near_resources`), the one nearest its resources in summed distance.
+    Bases with no buildable site (where the replays never showed the ground) are left
+    out. The start locations are among the sites, exactly (`tests`)."""
+    fields = np.array([m[:2] for m in layout.minerals], np.float32)
+    geysers = np.array([g[:2] for g in layout.geysers], np.float32)
+    points = np.concatenate([fields, geysers])
+    sizes = np.concatenate([np.broadcast_to(UNIT_DATA.footprint[t], (len(p), 2)) for t, p in (
+        (UnitType.MINERAL_FIELD, fields), (UnitType.VESPENE_GEYSER, geysers))]).astype(np.float32)
+    cc = UNIT_DATA.footprint[UnitType.COMMAND_CENTER].astype(np.float32)
+    (w, h), (fw, fh) = buildable.shape[::-1], cc.astype(int)
+    span = np.arange(-BASE_REACH, BASE_REACH + 1, dtype=np.float32)
+    groups, sites = resource_groups(points), []
+    for group in range(groups.max() + 1):
+        members = points[groups == group]
+        centre = np.floor(members.mean(0)) + 0.5
+        grid = np.stack(np.meshgrid(span, span), -1).reshape(-1, 2) + centre
+        with jax.ensure_compile_time_eval():  # Static, also where first asked in a trace.
+            clear = ~np.asarray(jax.vmap(lambda site: jnp.any(production.near_resources(
+                site, cc, points, sizes)))(grid))
+        corner = np.floor(grid - cc / 2).astype(int)  # The footprint's lowest cell.
+        inside = np.all((corner >= 0) & (corner + (fw, fh) <= (w, h)), 1)
+        on_ground = np.array([ok and buildable[h - y - fh:h - y, x:x + fw].all()
+                              for (x, y), ok in zip(corner, inside)])
+        cost = np.linalg.norm(grid[:, None] - members[None], axis=-1).sum(1)
+        cost = np.where(clear & on_ground, cost, np.inf)
+        if np.isfinite(cost).any():
+            sites.append(grid[np.argmin(cost)])
+    return np.array(sites, np.float32)
 
 
 def melee_geometry(layout: ladder.MapLayout) -> MapGeometry:
@@ -150,6 +209,19 @@ class Melee(MiniGame):
                                owner, cc + ring, tag)
             slot += 1 + STARTING_SCVS
         return units, start, tag
+
+    @functools.cached_property
+    def bases(self) -> np.ndarray:
+        """float32[B, 2]: every base's Command Center site (`base_sites`)."""
+        return base_sites(self.layout, self.geometry.buildable)
+
+    def naturals(self, map_state) -> jax.Array:
+        """float32[2, 2]: each player's natural expansion, the base nearest its start
+        location (as `start_cameras`)."""
+        starts = np.asarray(self.layout.start_locations, np.float32)
+        away = np.linalg.norm(self.bases[None] - starts[:, None], axis=-1)
+        natural = jnp.asarray(self.bases[np.argmin(np.where(away > 1.0, away, np.inf), 1)])
+        return jnp.stack([natural[map_state], natural[1 - map_state]])
 
     def start_cameras(self, map_state) -> jax.Array:
         """float32[2, 2]: each player's camera on its start location."""

@@ -76,7 +76,8 @@ CANCEL_REFUND = 0.75
 ENERGY_PER_LOOP = 0.5625 / 16
 """Energy regeneration: 0.5625 per game second (0.7875 per second at Faster speed)."""
 RESOURCE_CLEARANCE = 3
-"""Cells a Command Center's footprint keeps from mineral fields and geysers."""
+"""Cells a Command Center's footprint keeps from mineral fields and geysers: the game's
+no-build zone, its corners cut (`near_resources`)."""
 
 QUEUE = 5
 """A producer's training queue; `BUILD_QUEUE` (8) with a complete Reactor."""
@@ -289,6 +290,18 @@ def _rect_overlap(centre, size, others, other_size):
     return jnp.all(gap < -1e-4, axis=-1)
 
 
+def near_resources(site, size, others, other_size):
+    """bool[M]: a Command Center's footprint (centre float32[2], size float32[2]) is
+    within `RESOURCE_CLEARANCE` cells of each resource's (float32[M, 2] centres and
+    sizes) both across and along, unless it is at least `RESOURCE_CLEARANCE` - 1 cells
+    off both ways: the zone's corners are cut. Every start location of the ladder
+    layouts has a mineral field 2 cells off diagonally (`melee.base_sites` finds each
+    start location by this rule)."""
+    gap = jnp.abs(others - site) - (size + other_size) / 2
+    close = jnp.all(gap < RESOURCE_CLEARANCE - 1e-4, axis=-1)
+    return close & ~jnp.all(gap > RESOURCE_CLEARANCE - 1 - 1e-4, axis=-1)
+
+
 def placement(units: Units, buildable, unit_type, site, target=NO_TARGET):
     """Whether a structure fits at a site.
 
@@ -321,8 +334,8 @@ def placement(units: Units, buildable, unit_type, site, target=NO_TARGET):
     blocks = units.alive & (other_size[:, 0] > 0)
     overlap = jnp.any(blocks & _rect_overlap(site, size, units.pos, other_size))
     resource = units.alive & (_column("contents", units.type) > 0)
-    clearance = jnp.where(unit_type == UnitType.COMMAND_CENTER, 2 * RESOURCE_CLEARANCE, 0)
-    too_close = jnp.any(resource & _rect_overlap(site, size + clearance, units.pos, other_size))
+    too_close = (unit_type == UnitType.COMMAND_CENTER) & jnp.any(
+        resource & near_resources(site, size, units.pos, other_size))
 
     geyser = jnp.clip(target, 0, n - 1)
     free_geyser = ((target >= 0) & units.alive[geyser]
