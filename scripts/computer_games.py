@@ -33,7 +33,8 @@ flags.DEFINE_list("players", ["idle", "random", "rush", "very_easy", "easy", "me
                   "The players: idle, random, rush, or a difficulty.")
 flags.DEFINE_list("opponents", ["very_easy", "easy", "medium", "hard"],
                   "The computer's difficulties.")
-flags.DEFINE_integer("num_slots", 256, "Unit slots (Simulator.num_slots).")
+flags.DEFINE_integer("num_slots", 384, "Unit slots (Simulator.num_slots): room for Hard's 38 "
+                     "SCVs and army beside the 160 resources.")
 flags.DEFINE_integer("step_mul", 16, "Game loops per agent step.")
 flags.DEFINE_integer("max_loops", 28_800, "Game loops before a tie (PySC2's 30 minutes).")
 flags.DEFINE_integer("seed", 0, "The first game's seed.")

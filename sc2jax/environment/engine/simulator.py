@@ -442,6 +442,7 @@ class Simulator:
                                       colliders=game.collider_slots,
                                       field_slots=game.field_slots,
                                       team_split=game.team_split,
+                                      static_slots=game.resource_slots,
                                       jitter_slots=game.num_slots,
                                       sized=game.slot_sizes is not None, face=False,
                                       air=game.has_air,

@@ -19,8 +19,9 @@ from sc2jax.environment import FUNCTIONS, make
 from sc2jax.environment.engine import ladder
 from sc2jax.environment.engine.compiled import compiled_both, simulator
 from sc2jax.environment.engine.minigames import get_map, melee
-from sc2jax.environment.engine.rules import players, production
-from sc2jax.environment.engine.rules.state import Outcome, Owner
+from sc2jax.environment.engine.rules import dynamics, players, production
+from sc2jax.environment.engine.rules.research import Research
+from sc2jax.environment.engine.rules.state import Order, Outcome, Owner, place
 from sc2jax.environment.engine.rules.units import UNIT_DATA, UnitType
 from sc2jax.environment.engine.simulator import Simulator
 from sc2jax.environment.interface.dense import to_dense
@@ -288,3 +289,49 @@ def test_two_agents_need_a_ladder_map_of_the_simulator():
         make("MoveToBeacon", num_agents=2)
     with pytest.raises(ValueError, match="num_agents must be 1 or 2, got 3"):
         make(MAP, num_agents=3)
+
+
+def test_a_resource_slot_is_never_reused():
+    game = get_map(MAP)
+    units, _, _ = game.init(jax.random.PRNGKey(0))
+    geyser = game.field_slots  # The first geyser; a Refinery over it kills it.
+    units = units.replace(alive=units.alive.at[jnp.asarray([0, geyser])].set(False))
+    assert int(production.free_slots(units, 1)[0]) == game.start_units
+
+
+@pytest.mark.slow
+def test_the_resource_slots_are_left_out_of_the_pairs_exactly():
+    """Combat, collisions and harvesting on the slots after the resources
+    (`MiniGame.resource_slots`) move every unit exactly as over all pairs: two lines of
+    30 Marines fight beside SCVs mining, bit for bit (the resources neither fight nor
+    move)."""
+    game = get_map(MAP)
+    units, _, tag = game.init(jax.random.PRNGKey(3))
+    units = jax.tree.map(lambda x: x[:256], units)
+    first = game.start_units
+    for side, owner in enumerate((Owner.SELF, Owner.ENEMY)):
+        grid = np.stack(np.meshgrid(np.arange(-5.0, 5.0), np.arange(3.0)), -1).reshape(-1, 2)
+        line = np.float32([88, 86]) + grid * (1, 2 * side - 1) + (0, 2 * side - 1)
+        units, tag = place(units, first + 30 * side + np.arange(30), UnitType.MARINE, owner,
+                           jnp.asarray(line, jnp.float32), tag)
+    fields = np.flatnonzero(np.asarray(units.type == UnitType.MINERAL_FIELD))
+    scvs = np.flatnonzero(np.asarray(units.alive & (units.type == UnitType.SCV)))
+    pos = np.asarray(units.pos)
+    nearest = fields[np.argmin(np.linalg.norm(pos[scvs, None] - pos[fields], axis=-1), 1)]
+    units = units.replace(orders=units.orders.at[scvs, 0].set(Order.GATHER),
+                          order_unit=units.order_unit.at[scvs, 0].set(nearest))
+    researched = jnp.zeros((2, len(Research)), bool)
+
+    def run(static_slots):
+        def loop(i, u):
+            return dynamics.game_loop(
+                u, jax.random.PRNGKey(i), game.geometry.playable, workers=True,
+                field_slots=game.field_slots, static_slots=static_slots,
+                jitter_slots=game.num_slots, sized=True, air=True, researched=researched)[0]
+        return jax.jit(lambda u: jax.lax.fori_loop(0, 200, loop, u))(units)
+
+    every, after = run(None), run(game.resource_slots)
+    assert_trees_equal(every, after)
+    marines = every.alive & (every.type == UnitType.MARINE)
+    assert 0 < int(marines.sum()) < 50  # They fought.
+    assert float(every.contents[fields].sum()) < float(units.contents[fields].sum())

@@ -62,6 +62,10 @@ class MiniGame:
       field_slots: None where any slot can hold a mineral field; else mineral fields are
         only ever in the first `field_slots` slots (none is ever created), and
         workers look for free fields among those alone.
+      resource_slots: None, or R where the first R slots hold the map's mineral fields
+        and geysers and nothing else (a resource's slot is never reused:
+        `state.open_slots`); they never move or fight, and combat, collision pushes
+        and workers' approach look at the other slots alone.
       team_split: None where any slot can hold a unit of either side; else one side's
         units are only ever in the first `team_split` slots and the other side's only
         in the rest, and combat looks at the pairs across the split alone.
@@ -89,6 +93,7 @@ class MiniGame:
     collider_slots: int | None = None
     own_slots: int | None = None
     field_slots: int | None = None
+    resource_slots: int | None = None
     team_split: int | None = None
     slot_sizes: tuple[int, ...] | None = None
     spawn_room: int = 0
@@ -100,7 +105,7 @@ class MiniGame:
         if sizes is None:
             return
         smallest = max(self.collider_slots or 0, self.own_slots or 0, self.field_slots or 0,
-                       self.team_split or 0)
+                       self.resource_slots or 0, self.team_split or 0)
         if list(sizes) != sorted(set(sizes)) or sizes[-1] != self.num_slots or (
                 sizes[0] <= smallest):
             raise ValueError(f"{self.name}: slot_sizes must ascend from above {smallest} "

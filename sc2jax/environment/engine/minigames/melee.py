@@ -170,6 +170,7 @@ class Melee(MiniGame):
                    geometry=melee_geometry(layout), fog=True,
                    camera=tuple(layout.start_locations[0]), unit_types=types,
                    starting_minerals=STARTING_MINERALS, field_slots=len(layout.minerals),
+                   resource_slots=len(layout.minerals) + len(layout.geysers),
                    slot_sizes=SLOT_SIZES, players=2, timer_outcome=Outcome.TIE,
                    layout=layout)
 

@@ -23,6 +23,7 @@ from sc2jax.environment.engine.rules.state import (
     Owner,
     Units,
     first_slots,
+    open_slots,
     place_where,
 )
 from sc2jax.environment.engine.rules.units import UNIT_DATA, UnitType
@@ -47,7 +48,7 @@ def calldown_mule(units: Units, point, picked, next_tag):
     casters = (commands.commandable(units) & units.complete
                & (units.type == UnitType.ORBITAL_COMMAND))
     caster = jnp.argmax(jnp.where(casters, units.energy, -1.0))
-    slot = first_slots(~units.alive, 1)[0]
+    slot = first_slots(open_slots(units), 1)[0]
     result = jnp.where(~casters.any() | (units.energy[caster] < ENERGY),
                        int(ActionResult.NotEnoughEnergy),
                        jnp.where(slot >= n, int(ActionResult.Error), 0)).astype(jnp.int32)

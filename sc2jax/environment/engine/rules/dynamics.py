@@ -147,15 +147,17 @@ def layer(flying):
 
 
 def pair_blocks(units: Units, data, team_split: int | None,
-                air: bool = False) -> list[PairBlock]:
+                air: bool = False, static_slots: int = 0) -> list[PairBlock]:
     """The pairs among which combat happens: all [N, N] pairs, or, where one side's
     units are only ever in the first `team_split` slots and the other side's only in
     the rest, the two blocks across the split (the rows of the two together are all N
-    slots, in order). With `air` (static), a row's enemies are only the columns its
-    weapon can hit (`targets`)."""
+    slots, in order). With `static_slots` (static) S, the pairs among the slots from S
+    on: the first S hold only resources, which neither fight nor can be fought
+    (`MiniGame.resource_slots`). With `air` (static), a row's enemies are only the
+    columns its weapon can hit (`targets`)."""
     n = units.num_slots
     if team_split is None:
-        spans = [(slice(0, n), slice(0, n))]
+        spans = [(slice(static_slots, n), slice(static_slots, n))]
     else:
         spans = [(slice(0, team_split), slice(team_split, n)),
                  (slice(team_split, n), slice(0, team_split))]
@@ -177,19 +179,27 @@ def hits_layer(data, target_type):
     return (data.targets & layer(jnp.asarray(UNIT_DATA.flying)[target_type])) > 0
 
 
-def _rows(blocks: list[PairBlock], per_block):
-    """[N, ...]: `per_block(block)` ([R, ...] for each block's rows) in slot order."""
-    parts = [per_block(block) for block in blocks]
+def _static_fill(parts: list, first: int, fill) -> list:
+    """`parts` after `fill` for the `first` static slots the blocks leave out."""
+    if not first:
+        return parts
+    head = parts[0]
+    return [jnp.full((first, *head.shape[1:]), fill, head.dtype), *parts]
+
+
+def _rows(blocks: list[PairBlock], per_block, fill=0):
+    """[N, ...]: `per_block(block)` ([R, ...] for each block's rows) in slot order;
+    `fill` in the static slots before the blocks (`pair_blocks`)."""
+    parts = _static_fill([per_block(block) for block in blocks], blocks[0].rows.start, fill)
     return parts[0] if len(parts) == 1 else jnp.concatenate(parts)
 
 
-def _cols(blocks: list[PairBlock], parts: list):
+def _cols(blocks: list[PairBlock], parts: list, fill=0):
     """[N, ...]: `parts` ([C, ...] for each block's columns, in the blocks' order) in slot
-    order."""
-    if len(parts) == 1:
-        return parts[0]
-    return jnp.concatenate([parts[i] for i in sorted(range(len(blocks)),
-                                                     key=lambda i: blocks[i].cols.start)])
+    order; `fill` in the static slots before the blocks (`pair_blocks`)."""
+    order = sorted(range(len(blocks)), key=lambda i: blocks[i].cols.start)
+    parts = _static_fill([parts[i] for i in order], blocks[order[0]].cols.start, fill)
+    return parts[0] if len(parts) == 1 else jnp.concatenate(parts)
 
 
 def _hit_by(block: PairBlock, target):
@@ -306,6 +316,7 @@ def game_loop(units: Units, key, playable, bursts: bool = False, workers: bool =
               combat: bool = True, colliders: int | None = None,
               field_slots: int | None = None,
               team_split: int | None = None,
+              static_slots: int | None = None,
               jitter_slots: int | None = None,
               sized: bool = False, face: bool = True,
               air: bool = False, researched=None) -> tuple[Units, LoopEvents]:
@@ -327,6 +338,9 @@ def game_loop(units: Units, key, playable, bursts: bool = False, workers: bool =
       team_split: (static) None, or S where one side's units are only ever in the
         first S slots and the other side's only in the rest (`MiniGame.team_split`); combat
         then looks at the pairs across S alone (`pair_blocks`).
+      static_slots: (static) None, or S where the first S slots hold only resources
+        (`MiniGame.resource_slots`): combat looks at the pairs among the other slots
+        alone, and only those slots are pushed in collisions (resources still block).
       jitter_slots: (static) None, or the map's slot count where `units` are its leading
         slots (`Simulator`'s views): the weapon jitter is drawn for that many slots and
         cut, so that a slot's draw does not depend on how many slots run.
@@ -353,7 +367,7 @@ def game_loop(units: Units, key, playable, bursts: bool = False, workers: bool =
     pos = units.pos
 
     if combat:  # Pair distances; maps without enemies need none.
-        blocks = pair_blocks(units, data, team_split, air)
+        blocks = pair_blocks(units, data, team_split, air, static_slots or 0)
 
     # Attack-unit orders whose target is gone are complete (only an enemy under the
     # cursor gives one, so maps without enemies have none).
@@ -368,13 +382,14 @@ def game_loop(units: Units, key, playable, bursts: bool = False, workers: bool =
     order = units.orders[:, 0]
 
     if combat:
-        target = _rows(blocks, lambda block: _select_targets(units, data, block))
+        target = _rows(blocks, lambda block: _select_targets(units, data, block), NO_TARGET)
     else:
         target = jnp.full(n, NO_TARGET, jnp.int32)
     has_target = (target >= 0) & alive
     safe_target = jnp.clip(target, 0, n - 1)
     # Targets are enemies, so each lies in its row's block's columns.
-    target_gap = _rows(blocks, lambda b: b.at(target[b.rows])) if combat else jnp.zeros(n)
+    target_gap = (_rows(blocks, lambda b: b.at(target[b.rows]), jnp.inf) if combat
+                  else jnp.zeros(n))
     in_range = has_target & (target_gap <= data.range) & (data.damage > 0)
 
     # Where each unit heads.
@@ -396,7 +411,7 @@ def game_loop(units: Units, key, playable, bursts: bool = False, workers: bool =
         depot = harvest.nearest_depot(units)
         units = harvest.resolve_returns(units, depot)
         gathering = harvest.working(units)
-        to_unit, unit_goal, unit_room = harvest.approach(units, data.radius)
+        to_unit, unit_goal, unit_room = harvest.approach(units, data.radius, static_slots or 0)
         goal = jnp.where(to_unit[:, None], pos[unit_goal], goal)
         to_goal = goal - pos
         goal_dist = jnp.sqrt(squared_length(to_goal) + 1e-12)
@@ -411,7 +426,7 @@ def game_loop(units: Units, key, playable, bursts: bool = False, workers: bool =
     passes = gathering | (order == Order.BUILD)
     first = lambda tree: leading_slots(tree, colliders)  # noqa: E731
     pushed = _resolve_collisions(first(new_pos), first(alive & ~passes), first(data), sized,
-                                 colliders or jitter_slots or n)
+                                 colliders or jitter_slots or n, static_slots or 0)
     new_pos = jnp.concatenate([pushed, new_pos[len(pushed):]])
     x0, y0, x1, y1 = playable
     new_pos = jnp.clip(new_pos, jnp.array([x0, y0]), jnp.array([x1, y1]))
@@ -461,7 +476,8 @@ def game_loop(units: Units, key, playable, bursts: bool = False, workers: bool =
 
         killed = alive & (units.health - damage - received(exploded) <= 0) & ~exploded
         exploding = exploded | (killed & (data.burst > 0))
-        dealt = jnp.concatenate([splash.sum(axis=1) for splash in splashes])
+        dealt = jnp.concatenate(_static_fill([splash.sum(axis=1) for splash in splashes],
+                                             blocks[0].rows.start, 0.0))
         hits = hits + jnp.where(exploding, dealt, 0.0)
         damage = damage + received(exploding)
     jitter = _cooldown_jitter(key, jitter_slots or n)[:n]
@@ -490,7 +506,8 @@ def game_loop(units: Units, key, playable, bursts: bool = False, workers: bool =
                      - data.radius - data.radius[unit_goal])
         units = units.replace(pos=new_pos, alive=alive)
         units, minerals, vespene, ended = harvest.harvest(
-            units, gathering & (gap_after <= harvest.REACH), depot, field_slots)
+            units, gathering & (gap_after <= harvest.REACH), depot, field_slots,
+            static_slots or 0)
         units = pop_order(units, ended)
         alive = units.alive
     by_player = lambda x: jnp.stack([jnp.sum(jnp.where(units.owner == p, x, 0.0))  # noqa: E731
@@ -544,11 +561,12 @@ def _strikes(blocks: list[PairBlock], args):
     rows = jnp.arange(units.num_slots)
     hit_by = [_hit_by(block, target) for block in blocks]
     damage = _cols(blocks, [_fold_rows(jnp.add, jnp.where(hit, hits[b.rows, None], 0.0))
-                            for b, hit in zip(blocks, hit_by)])
+                            for b, hit in zip(blocks, hit_by)], 0.0)
     attacker = _cols(blocks, [
         _fold_rows(jnp.maximum, jnp.where(hit & fires[b.rows, None], rows[b.rows, None], -1))
-        for b, hit in zip(blocks, hit_by)])
-    called = _rows(blocks, lambda block: _called(units, data, block, fires, target, attacker))
+        for b, hit in zip(blocks, hit_by)], -1)
+    called = _rows(blocks, lambda block: _called(units, data, block, fires, target, attacker),
+                   -1)
     return damage, attacker, called
 
 
@@ -660,7 +678,8 @@ def pair_width(n: int) -> int:
     return -(-n // 8) * 8 if 8 < n <= 32 else n
 
 
-def _resolve_collisions(pos, alive, data, sized: bool = False, slots: int | None = None):
+def _resolve_collisions(pos, alive, data, sized: bool = False, slots: int | None = None,
+                        static_slots: int = 0):
     """Pushes overlapping ground units apart; immobile ones (structures, resources) don't
     move. Items that do not collide (`colliding`) are ignored.
 
@@ -678,6 +697,9 @@ def _resolve_collisions(pos, alive, data, sized: bool = False, slots: int | None
 
     `slots` (static): the map's colliding slots (N where None), whose `push_bits` the
     sums take, so that a run on leading slots sums as one on all of them.
+
+    `static_slots` (static) S: the first S slots hold only resources, which block but
+    never move: the pairs are [N - S, N], the pushes of the slots from S on.
     """
     n = len(pos)
     width = pair_width(n)
@@ -687,13 +709,15 @@ def _resolve_collisions(pos, alive, data, sized: bool = False, slots: int | None
     mobile = pad(data.speed > 0)
     radius = pad(data.radius)
     xy = pad(pos)
-    dx = xy[:, None, 0] - xy[None, :, 0]
-    dy = xy[:, None, 1] - xy[None, :, 1]
+    rows = slice(static_slots, width)  # The slots that can be pushed (and the padding).
+    dx = xy[rows, None, 0] - xy[None, :, 0]
+    dy = xy[rows, None, 1] - xy[None, :, 1]
     dist = jnp.hypot(dx, dy) if sized else jnp.sqrt(dx * dx + dy * dy + 1e-12)
-    overlap = radius[:, None] + radius[None, :] - dist
-    pair = collides[:, None] & collides[None, :] & (overlap > 0) & ~jnp.eye(width, dtype=bool)
+    overlap = radius[rows, None] + radius[None, :] - dist
+    itself = jnp.arange(static_slots, width)[:, None] == jnp.arange(width)[None, :]
+    pair = collides[rows, None] & collides[None, :] & (overlap > 0) & ~itself
     # Share of the overlap i gives way: half between two mobile units, all against a wall.
-    share = jnp.where(mobile[None, :], 0.5, 1.0) * mobile[:, None]
+    share = jnp.where(mobile[None, :], 0.5, 1.0) * mobile[rows, None]
     push = jnp.where(pair, overlap * share, 0.0)
     # Coincident units separate along a fixed per-pair direction. The directions are
     # constants of the compiled program: computed in it, XLA hoists them out of the game
@@ -704,10 +728,11 @@ def _resolve_collisions(pos, alive, data, sized: bool = False, slots: int | None
     apart = dist > 1e-4
     # One division per pair, not one per axis: 1.05x at 64 environments, 1.03x at one.
     inverse = 1.0 / dist
-    along = lambda d, tie: jnp.where(apart, d * inverse, tie[:, None] - tie[None, :])  # noqa: E731
+    along = lambda d, tie: jnp.where(apart, d * inverse, tie[rows, None] - tie[None, :])  # noqa: E731
 
     fixed = lambda d, tie: (along(d, tie) * push * 2 ** bits).astype(jnp.int32)  # noqa: E731
     totals = jax.lax.reduce((fixed(dx, tie_x), fixed(dy, tie_y)), (np.int32(0), np.int32(0)),
                             lambda a, b: (a[0] + b[0], a[1] + b[1]), (1,))
-    totals = [total[:n] for total in totals]
-    return pos + jnp.stack(totals, axis=-1).astype(jnp.float32) * 2 ** -bits
+    pushed = jnp.stack([total[:n - static_slots] for total in totals], axis=-1)
+    return jnp.concatenate([pos[:static_slots],
+                            pos[static_slots:] + pushed.astype(jnp.float32) * 2 ** -bits])

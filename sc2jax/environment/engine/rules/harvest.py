@@ -109,12 +109,14 @@ def _nearest_of(units: Units, slots, eps):
     return jnp.where(mine.any(axis=1), nearest, NO_TARGET)
 
 
-def approach(units: Units, radius):
+def approach(units: Units, radius, static_slots: int = 0):
     """Where working workers (`working`) walk this loop.
 
     Args:
       units: the units.
       radius: float32[N] the units' radii.
+      static_slots: (static) S where the first S slots hold only resources, which walk
+        nowhere (`MiniGame.resource_slots`): the pairs are then [N - S, N].
 
     Returns:
       (walking bool[N], target int32[N] the unit walked to, room float32[N] the
@@ -125,8 +127,10 @@ def approach(units: Units, radius):
     target = jnp.clip(units.order_unit[:, 0], 0, n - 1)
     # Edge to edge, from the [N, N] pair array: XLA rounds a per-row distance differently
     # in the last bit, and this keeps the engine's trajectories as they were.
-    gap = distances(units.pos, units.pos) - radius[:, None] - radius[None, :]
-    left = gap[jnp.arange(n), target]
+    rows = slice(static_slots, n)
+    gap = distances(units.pos[rows], units.pos) - radius[rows, None] - radius[None, :]
+    left = jnp.concatenate([jnp.zeros(static_slots), gap[jnp.arange(n - static_slots),
+                                                         target[rows]]])
     room = jnp.where(left > REACH, left - REACH + 1e-3, 0.0)
     return walking, target, room
 
@@ -140,7 +144,7 @@ def resolve_returns(units: Units, depot) -> Units:
         jnp.where(unset, depot, units.order_unit[:, 0])))
 
 
-def _spread(units: Units, field, blocked, contents, field_slots):
+def _spread(units: Units, field, blocked, contents, field_slots, static_slots: int = 0):
     """int32[N]: where workers that find their mineral field taken go next.
 
     One such worker per field a loop moves on to the nearby field (within
@@ -155,17 +159,20 @@ def _spread(units: Units, field, blocked, contents, field_slots):
       contents: float32[N] the resources left.
       field_slots: (static) None, or the number of leading slots that can hold mineral
         fields (`MiniGame.field_slots`); the others are not looked at.
+      static_slots: (static) as in `approach`: the workers are in the slots from it on.
     """
     n = units.num_slots
-    rows = jnp.arange(n)
+    workers = slice(static_slots, n)
+    rows = jnp.arange(n)[workers]
     # Counted over the field slots alone (`targeted_by`'s [N, F]): a blocked worker's
     # field is a mineral field, so `field` lies among them where `blocked` holds.
     fields = leading_slots(units.alive & (units.type == UnitType.MINERAL_FIELD)
                            & (contents > 0), field_slots)
     f = fields.shape[0]
     gathering = units.alive & (units.orders[:, 0] == Order.GATHER)
-    aims = targeted_by(jnp.clip(units.order_unit[:, 0], 0, n - 1), f)
-    assigned = jnp.sum(aims & gathering[:, None], axis=0, dtype=jnp.int32)
+    aims = targeted_by(jnp.clip(units.order_unit[workers, 0], 0, n - 1), f)
+    assigned = jnp.sum(aims & gathering[workers, None], axis=0, dtype=jnp.int32)
+    field, blocked = field[workers], blocked[workers]
     dist = distances(units.pos[field], leading_slots(units.pos, field_slots))
     near = fields[None, :] & (dist <= SPREAD_RADIUS)
     cost = jnp.where(near, assigned[None, :] * 1000.0 + dist, jnp.inf)
@@ -174,7 +181,8 @@ def _spread(units: Units, field, blocked, contents, field_slots):
                     axis=0)
     own = jnp.clip(field, 0, f - 1)
     moves = blocked & (first[own] == rows) & (assigned[best] < assigned[own] - 1)
-    return jnp.where(moves, best, field)
+    return jnp.concatenate([jnp.zeros(static_slots, field.dtype),
+                            jnp.where(moves, best, field)])
 
 
 def _free(aims, mining, waiting, field, kind):
@@ -183,20 +191,23 @@ def _free(aims, mining, waiting, field, kind):
     there.
 
     Args:
-      aims: bool[N, N], [worker, unit]: the worker's field is the unit.
+      aims: bool[N - S, N], [worker, unit]: the worker's field is the unit, for the
+        slots from S on (the first S hold only resources: `MiniGame.resource_slots`).
       mining: bool[N] the workers mining on after this loop.
       waiting: bool[N] the workers at their field, waiting to mine.
       field: int32[N] each worker's field.
       kind: bool[N] the workers of the kind.
     """
-    n = aims.shape[0]
+    n = aims.shape[1]
+    workers = slice(n - aims.shape[0], n)
     rows = jnp.arange(n)
-    occupied = jnp.any(aims & (mining & kind)[:, None], axis=0)
-    first = jnp.min(jnp.where(aims & (waiting & kind)[:, None], rows[:, None], n), axis=0)
+    occupied = jnp.any(aims & (mining & kind)[workers, None], axis=0)
+    first = jnp.min(jnp.where(aims & (waiting & kind)[workers, None], rows[workers, None], n),
+                    axis=0)
     return ~occupied[field] & (first[field] == rows)
 
 
-def harvest(units: Units, touching, depot, field_slots=None) -> tuple[
+def harvest(units: Units, touching, depot, field_slots=None, static_slots: int = 0) -> tuple[
         Units, jnp.ndarray, jnp.ndarray, jnp.ndarray]:
     """One loop of the harvest cycle, after the loop's movement.
 
@@ -205,6 +216,7 @@ def harvest(units: Units, touching, depot, field_slots=None) -> tuple[
       touching: bool[N] the unit touches its order's target unit.
       depot: int32[N] each unit's nearest Command Center (`nearest_depot`).
       field_slots: (static) as in `_spread`.
+      static_slots: (static) as in `approach`.
 
     Returns:
       (units, minerals, vespene, done): minerals and vespene are float32[N], what each
@@ -231,10 +243,12 @@ def harvest(units: Units, touching, depot, field_slots=None) -> tuple[
     finished = mining & (work <= 0)
     trip = jnp.where(refinery, GAS_PER_TRIP, jnp.where(mule, MULE_TRIP, MINERALS_PER_TRIP))
     take = jnp.where(finished, jnp.minimum(trip, units.contents[safe]), 0.0)
-    # By target over [N, N] pairs, not scatters (`targeted_by`); the sum is exact in any
-    # order, as resources come in whole units.
-    aims = targeted_by(safe, n)
-    contents = units.contents - jnp.sum(jnp.where(aims, take[:, None], 0.0), axis=0)
+    # By target over [N, N] pairs (the workers' rows: from `static_slots` on), not
+    # scatters (`targeted_by`); the sum is exact in any order, as resources come in
+    # whole units.
+    aims = targeted_by(safe[static_slots:], n)
+    contents = units.contents - jnp.sum(jnp.where(aims, take[static_slots:, None], 0.0),
+                                        axis=0)
 
     # Starting to mine: at the field, empty-handed, the field free of its kind of worker
     # (SCVs and MULEs mine side by side); the lowest slot first.
@@ -249,7 +263,8 @@ def harvest(units: Units, touching, depot, field_slots=None) -> tuple[
     work = jnp.where(start, jnp.where(refinery, GAS_LOOPS, mine_loops),
                      jnp.where(finished, jnp.where(refinery, 0.0, LEAVE_LOOPS), work))
     blocked = waiting & ~start & ~refinery
-    target = jnp.where(blocked, _spread(units, safe, blocked, contents, field_slots), target)
+    target = jnp.where(blocked, _spread(units, safe, blocked, contents, field_slots,
+                                        static_slots), target)
 
     # Depositing at the Command Center.
     deposit = returning & touching & (units.cargo > 0)

@@ -61,6 +61,7 @@ from sc2jax.environment.engine.rules.state import (
     Owner,
     Units,
     first_slots,
+    open_slots,
     place_where,
     targeted_by,
 )
@@ -359,8 +360,9 @@ def affordable(bank, price):
 
 
 def free_slots(units: Units, count: int):
-    """int32[count]: the first `count` dead slots, ascending; N where there are fewer."""
-    return first_slots(~units.alive, count)
+    """int32[count]: the first `count` open slots (`open_slots`), ascending; N where
+    there are fewer."""
+    return first_slots(open_slots(units), count)
 
 
 class Economy(NamedTuple):
@@ -495,11 +497,11 @@ def build_addon(units: Units, bank, next_tag, buildable, kind):
     price = cost(addon_type)  # [N, 2]
     placeable = idle & (fits == 0)
     paid_so_far = jnp.cumsum(jnp.where(placeable[:, None], price, 0), axis=0)
-    dead = ~units.alive
+    dead = open_slots(units)
     rank = jnp.cumsum(placeable, dtype=jnp.int32) - 1
     starts = (placeable & jnp.all(paid_so_far <= bank, axis=-1)
               & (rank < jnp.sum(dead, dtype=jnp.int32)))
-    # The k-th add-on takes the k-th dead slot ([producer, slot] pairs, as `_spawn`).
+    # The k-th add-on takes the k-th open slot ([producer, slot] pairs, as `_spawn`).
     dead_rank = jnp.cumsum(dead, dtype=jnp.int32) - 1
     pairs = starts[:, None] & dead[None, :] & (rank[:, None] == dead_rank[None, :])
     filled = pairs.any(axis=0)
@@ -751,11 +753,11 @@ def _spawn(units: Units, next_tag, done, researched, work):
     finished = done[:, :2].reshape(-1)
     made = units.queue[:, :2].reshape(-1)
     maker = jnp.repeat(jnp.arange(n), 2)
-    # Each finished unit takes the next free slot (the k-th the k-th dead slot); without
+    # Each finished unit takes the next free slot (the k-th the k-th open slot); without
     # one it waits. Matched over [unit, slot] pairs and written by selects, not scatters
     # (`place_where`).
     rank = jnp.cumsum(finished, dtype=jnp.int32) - 1
-    dead = ~units.alive
+    dead = open_slots(units)
     dead_rank = jnp.cumsum(dead, dtype=jnp.int32) - 1
     spawns = finished & (rank < jnp.sum(dead, dtype=jnp.int32))
     pairs = spawns[:, None] & dead[None, :] & (rank[:, None] == dead_rank[None, :])

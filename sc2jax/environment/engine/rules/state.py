@@ -42,6 +42,14 @@ def slots_in_use(alive):
     return jnp.max(jnp.where(alive, jnp.arange(1, alive.shape[-1] + 1), 0)).astype(jnp.int32)
 
 
+def open_slots(units) -> jax.Array:
+    """bool[N]: the slots a new unit may take: dead ones, but not a resource's. A mined
+    out mineral field or a geyser under a Refinery keeps its slot, so that the resources
+    stay in the slots they start in (`MiniGame.resource_slots`)."""
+    resource = (units.type == UnitType.MINERAL_FIELD) | (units.type == UnitType.VESPENE_GEYSER)
+    return ~units.alive & ~resource
+
+
 def first_slots(mask, count: int):
     """int32[count]: the first `count` slots where bool[N] `mask` holds, ascending; N
     where there are fewer.
