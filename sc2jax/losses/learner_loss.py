@@ -67,13 +67,18 @@ def _discount(batch: Trajectory) -> jax.Array:
     return batch.discount * (1.0 - batch.first[1:].astype(batch.discount.dtype))
 
 
+def _scaled(batch: Trajectory, reward_scale: float) -> Trajectory:
+    """The trajectory with its rewards multiplied by `reward_scale`."""
+    return batch if reward_scale == 1.0 else batch._replace(reward=batch.reward * reward_scale)
+
+
 def make_actor_critic_loss(network: nn.Module, *, value_weight: float = 0.5,
                            entropy_weight: float = 1e-3,
                            argument_entropy_weight: float | None = None,
                            off_policy_correction: str = "none", vtrace_lambda: float = 1.0,
                            clip_rho_threshold: float = 1.0,
                            clip_pg_rho_threshold: float = 1.0,
-                           clip_epsilon: float = 0.2) -> LossFn:
+                           clip_epsilon: float = 0.2, reward_scale: float = 1.0) -> LossFn:
     """Builds the A3C (or V-trace) loss of a network.
 
     Args:
@@ -85,6 +90,7 @@ def make_actor_critic_loss(network: nn.Module, *, value_weight: float = 0.5,
         clipped surrogate; the trajectory must carry `make_ppo_targets`' targets).
       vtrace_lambda, clip_rho_threshold, clip_pg_rho_threshold: V-trace settings.
       clip_epsilon: PPO's ε.
+      reward_scale: multiplies the rewards (for PPO, give `make_ppo_targets` the same).
 
     Returns:
       `loss_fn(params, trajectory) -> (loss, metrics)`, jittable and differentiable.
@@ -99,6 +105,7 @@ def make_actor_critic_loss(network: nn.Module, *, value_weight: float = 0.5,
                    argument_entropy_weight=argument_entropy_weight)
 
     def loss_fn(params: Any, batch: Trajectory) -> tuple[jax.Array, dict[str, jax.Array]]:
+        batch = _scaled(batch, reward_scale)
         t = jnp.shape(batch.reward)[0]
         out = _unroll(network, params, batch)
         out_tm1 = jax.tree.map(lambda x: x[:t], out)
@@ -148,17 +155,18 @@ def make_actor_critic_loss(network: nn.Module, *, value_weight: float = 0.5,
     return loss_fn
 
 
-def make_ppo_targets(network: nn.Module, gae_lambda: float = 0.95
+def make_ppo_targets(network: nn.Module, gae_lambda: float = 0.95, reward_scale: float = 1.0
                      ) -> Callable[[Any, Trajectory], Trajectory]:
     """`(params, trajectory) -> trajectory` with PPO's `advantage` and `value_target`
-    (`gae_targets`) from the values of `params`, the parameters that acted."""
+    (`gae_targets`) from the values of `params`, the parameters that acted, and the
+    rewards multiplied by `reward_scale`."""
 
     def targets(params: Any, batch: Trajectory) -> Trajectory:
         t = jnp.shape(batch.reward)[0]
         value, discount = _unroll(network, params, batch).value, _discount(batch)
         advantage, target = jax.vmap(lambda *a: gae_targets(*a, lambda_=gae_lambda),
                                      in_axes=(1, 1, 1, 0), out_axes=1)(
-            value[:t], batch.reward, discount, value[t])
+            value[:t], _scaled(batch, reward_scale).reward, discount, value[t])
         return batch._replace(advantage=advantage, value_target=target)
 
     return targets

@@ -51,6 +51,16 @@ def test_recurrent_network_with_vtrace():
     assert metrics["log_prob"] < 0
 
 
+def test_reward_scale_multiplies_the_rewards():
+    net, params = network("fullyconv")
+    traj = _trajectory("fullyconv")
+    scaled = jax.jit(make_actor_critic_loss(net, reward_scale=0.25))(params, traj)
+    by_hand = jax.jit(make_actor_critic_loss(net))(
+        params, traj._replace(reward=traj.reward * 0.25))
+    np.testing.assert_allclose(scaled[0], by_hand[0], rtol=1e-6)
+    assert not np.isclose(scaled[0], jax.jit(make_actor_critic_loss(net))(params, traj)[0])
+
+
 def test_bad_settings():
     net, _ = network("fullyconv")
     with pytest.raises(ValueError, match=r"unknown off_policy_correction 'retrace'.*'vtrace'"):

@@ -44,6 +44,8 @@ class TrainConfig:
       score_index: the reward (simulator): None for the map's default (the mini-games'
         score; the outcome on ladder maps, as PySC2), or `Simulator.score_index`'s: -1
         the outcome, -2 the Blizzard score, k >= 0 `score_cumulative[k]`.
+      reward_scale: multiplies the rewards the learner sees (the logged scores stay the
+        game's): for rewards far from 1, such as the Blizzard score's.
       agent: the network: "atari", "fullyconv", "fullyconv_lstm" or "arfullyconv".
       screen_size, minimap_size: feature-layer resolutions (16..256).
       screen_features, minimap_features: layer names (None: all of them).
@@ -97,6 +99,7 @@ class TrainConfig:
     backend: str = "simulator"
     bot: tuple[str, ...] | None = None
     score_index: int | None = None
+    reward_scale: float = 1.0
     agent: str = "fullyconv"
     screen_size: int = 64
     minimap_size: int = 64
@@ -176,7 +179,7 @@ class TrainConfig:
         if not 0.0 <= self.gae_lambda <= 1.0:
             raise ValueError(f"gae_lambda must be in [0, 1], got {self.gae_lambda!r}")
         for name in ("learning_rate", "rmsprop_epsilon", "non_point_rate_scale",
-                     "checkpoint_interval_s"):
+                     "reward_scale", "checkpoint_interval_s"):
             _positive_float(name, getattr(self, name))
         for name in ("value_weight", "entropy_weight", "max_grad_norm"):
             if not getattr(self, name) >= 0:

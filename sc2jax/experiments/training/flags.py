@@ -92,6 +92,8 @@ _TABLE = {
         "seeds, one rate 5e-3 on 11 of 18. FullyConv LSTM needs it at such rates: at one rate "
         "of 5e-3 its ConvLSTM's output gate closed and it did not learn; with 0.1 it learns "
         "MoveToBeacon (docs/results.md)."),
+    "reward_scale": ("reward_scale", flags.DEFINE_float,
+                     "Multiplies the rewards the learner sees (logged scores stay the game's)."),
     "max_grad_norm": ("max_grad_norm", flags.DEFINE_float,
                       "Global gradient-norm clip (0: none)."),
     "off_policy_correction": ("off_policy_correction", flags.DEFINE_string,

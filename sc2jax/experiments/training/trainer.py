@@ -169,10 +169,11 @@ def _build(config: TrainConfig) -> Agent:
                            dtype=config.compute_dtype)
     loss = make_actor_critic_loss(
         network, value_weight=config.value_weight, entropy_weight=config.entropy_weight,
-        off_policy_correction=config.off_policy_correction, clip_epsilon=config.ppo_clip)
+        off_policy_correction=config.off_policy_correction, clip_epsilon=config.ppo_clip,
+        reward_scale=config.reward_scale)
     ppo = config.off_policy_correction == "ppo"
-    passes = dict(prepare=make_ppo_targets(network, config.gae_lambda), epochs=config.ppo_epochs,
-                  minibatches=config.ppo_minibatches) if ppo else {}
+    passes = dict(prepare=make_ppo_targets(network, config.gae_lambda, config.reward_scale),
+                  epochs=config.ppo_epochs, minibatches=config.ppo_minibatches) if ppo else {}
     optimiser = OptimiserConfig(decay=config.rmsprop_decay, epsilon=config.rmsprop_epsilon,
                                 max_grad_norm=config.max_grad_norm,
                                 anneal_updates=config.total_updates,

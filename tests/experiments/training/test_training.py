@@ -55,6 +55,7 @@ SWEEP = TrainConfig(**{**PERIODIC.to_json(), "eval_episodes": 2})
     (dict(best_eval_interval=-1), "best_eval_interval must be an int >= 0, got -1"),
     (dict(best_eval_episodes=0), "best_eval_episodes must be a positive int"),
     (dict(non_point_rate_scale=0.0), "non_point_rate_scale must be a positive number"),
+    (dict(reward_scale=-1.0), "reward_scale must be a positive number, got -1.0"),
     (dict(agent="arfullyconv", non_point_rate_scale=0.1), "needs a network with point heads"),
     (dict(backend="sc2", best_eval_interval=5), "best_eval_interval=5 needs backend"),
     (dict(ppo_epochs=0), "ppo_epochs must be a positive int"),
