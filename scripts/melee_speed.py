@@ -10,11 +10,14 @@ size, in one process: the XLA compilation of the vmapped, jitted step, then 5 un
 steps and agent steps per second over 20. For the unit counts, one batch of
 environments whose both players have `army` idle Marines beside their Command Center
 (each side's supply: 12 SCVs + `army`), timed the same way, on the leading unit slots
-in use (the default) and on every slot.
+in use (the default) and on every slot. With `--paired_resources`, each batch size is
+timed again with the resources in the pair work (`MiniGame.resource_slots` None: combat,
+collisions and harvesting over every pair of slots), the engine before c68a2fd.
 """
 
 from __future__ import annotations
 
+import dataclasses
 import time
 
 import jax
@@ -36,11 +39,16 @@ flags.DEFINE_list("army", ["0", "50", "100", "188"],
                   "Marines a side for the unit-count rows ('' to skip them).")
 flags.DEFINE_integer("army_batch", 8, "Environments of the unit-count rows.")
 flags.DEFINE_integer("steps", 20, "Timed steps per row.")
+flags.DEFINE_bool("paired_resources", False,
+                  "Also time each batch size with the resources in the pair work.")
 
 
-def _simulator(use_slot_sizes: bool = True) -> Simulator:
-    return Simulator(FLAGS.map, ObservationFormat(), step_mul=8, score_index=-1,
-                     computer=Difficulty.very_easy, use_slot_sizes=use_slot_sizes)
+def _simulator(use_slot_sizes: bool = True, paired_resources: bool = False) -> Simulator:
+    sim = Simulator(FLAGS.map, ObservationFormat(), step_mul=8, score_index=-1,
+                    computer=Difficulty.very_easy, use_slot_sizes=use_slot_sizes)
+    if paired_resources:  # The same game with its resources in every pair.
+        object.__setattr__(sim, "game", dataclasses.replace(sim.game, resource_slots=None))
+    return sim
 
 
 def _with_army(sim: Simulator, state, count: int):
@@ -92,11 +100,16 @@ def main(argv):
     del argv
     print(f"{FLAGS.map}, every layer at 64², step_mul 8, the VeryEasy computer, random "
           f"actions on {jax.devices()[0].platform}")
-    print("| environments | compile (s) | agent steps/s | game loops/s |\n|---:|---:|---:|---:|")
+    paired = " agent steps/s, resources paired |" if FLAGS.paired_resources else ""
+    print(f"| environments | compile (s) | agent steps/s | game loops/s |{paired}\n"
+          f"|---:|---:|---:|---:|{'---:|' if paired else ''}")
     sim = _simulator()
     for batch in [int(b) for b in FLAGS.batches]:
         seconds, rate, _ = _measure(sim, batch)
-        print(f"| {batch} | {seconds:.0f} | {rate:,.0f} | {8 * rate:,.0f} |", flush=True)
+        row = f"| {batch} | {seconds:.0f} | {rate:,.0f} | {8 * rate:,.0f} |"
+        if FLAGS.paired_resources:
+            row += f" {_measure(_simulator(paired_resources=True), batch)[1]:,.0f} |"
+        print(row, flush=True)
     armies = [int(a) for a in FLAGS.army if a]
     if not armies:
         return
