@@ -52,7 +52,7 @@ def owned(units, owner, unit_type):
 
 
 @pytest.mark.parametrize("seed", [0, 3])  # The player at the first start, at the second.
-def test_each_player_starts_with_a_command_center_12_scvs_and_50_minerals(seed):
+def test_each_player_starts_with_a_command_center_12_mining_scvs_and_50_minerals(seed):
     game = get_map(MAP)
     layout = ladder.load_layout(melee.LAYOUT_OF[MAP])
     state = sim()._initial_state(jax.random.PRNGKey(seed))
@@ -68,6 +68,13 @@ def test_each_player_starts_with_a_command_center_12_scvs_and_50_minerals(seed):
         assert len(scvs) == 12
         np.testing.assert_allclose(np.linalg.norm(units.pos[scvs] - units.pos[cc], axis=-1),
                                    melee.SCV_RING, rtol=1e-5)
+        # Mining, as the game sends them at the start: on the 8 fields of their base,
+        # one or two to a field.
+        assert (units.orders[scvs, 0] == Order.GATHER).all()
+        field = units.order_unit[scvs, 0]
+        assert (units.type[field] == UnitType.MINERAL_FIELD).all()
+        assert (np.linalg.norm(units.pos[field] - units.pos[cc], axis=-1) < 10).all()
+        assert sorted(np.bincount(field)[np.unique(field)]) == [1] * 4 + [2] * 4
     assert sorted(homes) == [0, 1]
     # Each camera on its own start location; the other's view is the mirror.
     np.testing.assert_array_equal(state.camera, starts[homes[0]])
@@ -216,8 +223,10 @@ def test_each_player_acts_from_its_own_view():
     assert len(owned(state.units, Owner.SELF, UnitType.SCV)) == 12
     assert int(theirs.observation["player"][6]) == 13  # food_workers
     assert int(mine.observation["player"][6]) == 12
-    # Spending is no loss: the SCV is worth its 50 minerals.
-    assert int(state.score) == int(state.other.score) == 1050
+    # Spending is no loss: the SCV is worth its 50 minerals. Both banks grew by mining.
+    assert int(state.score) == int(state.minerals) + 400 + 12 * 50
+    assert int(state.other.score) == int(state.other.minerals) + 400 + 13 * 50
+    assert int(state.minerals) > 50 and int(state.other.minerals) > 0
 
 
 @pytest.mark.slow
@@ -267,9 +276,10 @@ def test_two_agents_play_one_game_through_make():
             second.observation["player"].player_id) == (1, 2)
     with pytest.raises(ValueError, match="function 490/Train_SCV_quick is not available"):
         env.step((F.no_op(), F.Train_SCV_quick("now")))
-    first, second = env.step((F.select_idle_worker("select_all"), F.no_op()))
+    assert F.select_idle_worker.id not in first.observation["available_actions"]  # Mining.
+    first, second = env.step((F.select_rect("select", (0, 0), (31, 31)), F.no_op()))
     assert first.step_type == second.step_type == dm_env.StepType.MID
-    assert len(first.observation["multi_select"]) == 12  # Its 12 idle SCVs.
+    assert len(first.observation["multi_select"]) == 12  # Its 12 SCVs, not the structure.
     assert len(second.observation["multi_select"]) == 0
     # Player 2 selects its Command Center at the centre of its screen, and trains an SCV.
     first, second = env.step((F.no_op(), F.select_point("select", (16, 16))))

@@ -2,8 +2,8 @@
 
 The layout re-created from professional replays gives the map's size, the start
 locations, and every mineral field and geyser at its exact position. Each player starts
-as in a melee game: a Command Center at its start location, 12 SCVs around it, and 50
-minerals; which start location is whose is drawn each episode. The other player is
+as in a melee game: a Command Center at its start location, 12 SCVs around it mining
+(the game sends them to the minerals at the start), and 50 minerals; which start location is whose is drawn each episode. The other player is
 `Owner.ENEMY`, with its own bank, research, score and view (`players`). A player whose
 structures are all destroyed (flying ones count) loses, and both at once tie; the map's
 timer, 30 minutes of game time (PySC2's `game_steps_per_episode` for ladder maps, 28,800
@@ -32,7 +32,7 @@ from sc2jax.environment.engine import ladder
 from sc2jax.environment.engine.minigames.base import MiniGame
 from sc2jax.environment.engine.rules import players, production, score
 from sc2jax.environment.engine.rules.geometry import MapGeometry
-from sc2jax.environment.engine.rules.state import EnvState, Outcome, Owner, Units, place
+from sc2jax.environment.engine.rules.state import EnvState, Order, Outcome, Owner, Units, place
 from sc2jax.environment.engine.rules.units import UNIT_DATA, Attribute, UnitType, terran_types
 from sc2jax.environment.interface.map_names import LADDER_MAPS
 
@@ -40,6 +40,8 @@ STARTING_MINERALS = 50
 STARTING_SCVS = 12
 TIME_LIMIT = 30 * 60
 """The map's timer, game seconds: PySC2's ladder maps' 30 minutes (28,800 game loops)."""
+FIELDS_A_BASE = 8
+"""The mineral fields of a start location, which its starting SCVs share."""
 SCV_RING = 3.5
 """The distance of the starting SCVs from their Command Center's centre."""
 SMALL_FIELD = 900
@@ -190,6 +192,7 @@ class Melee(MiniGame):
         player's Command Center and SCVs, the player's first. The script's state is
         int32 the player's start location (0 or 1; the other player's is the other)."""
         fields, small, geysers = self._resources()
+        field_pos = jnp.asarray(fields)
         units = Units.empty(self.num_slots)
         units, tag = place(units, np.arange(len(fields)), UnitType.MINERAL_FIELD,
                            Owner.NEUTRAL, jnp.asarray(fields), 0)
@@ -206,8 +209,14 @@ class Melee(MiniGame):
             cc = starts[location]
             units, tag = place(units, np.array([slot]), UnitType.COMMAND_CENTER, owner,
                                cc[None], tag)
-            units, tag = place(units, slot + 1 + np.arange(STARTING_SCVS), UnitType.SCV,
-                               owner, cc + ring, tag)
+            scvs = slot + 1 + np.arange(STARTING_SCVS)
+            units, tag = place(units, scvs, UnitType.SCV, owner, cc + ring, tag)
+            # Each SCV gathers: the k-th from the (k mod 8)-th field nearest home.
+            nearest = jnp.argsort(jnp.sum((field_pos - cc) ** 2, axis=-1))[:FIELDS_A_BASE]
+            field = nearest[np.arange(STARTING_SCVS) % FIELDS_A_BASE].astype(jnp.int32)
+            units = units.replace(orders=units.orders.at[scvs, 0].set(Order.GATHER),
+                                  order_unit=units.order_unit.at[scvs, 0].set(field),
+                                  order_pos=units.order_pos.at[scvs, 0].set(field_pos[field]))
             slot += 1 + STARTING_SCVS
         return units, start, tag
 
