@@ -4,11 +4,12 @@ The layout re-created from professional replays gives the map's size, the start
 locations, and every mineral field and geyser at its exact position. Each player starts
 as in a melee game: a Command Center at its start location, 12 SCVs around it mining
 (the game sends them to the minerals at the start), and 50 minerals; which start
-location is whose is drawn each episode. The other player is `Owner.ENEMY`, with its own bank, research, score and view (`players`). A player whose
-structures are all destroyed (flying ones count) loses, and both at once tie; the map's
-timer, 30 minutes of game time (PySC2's `game_steps_per_episode` for ladder maps, 28,800
-game loops), ends the game in a tie. Fog of war is on. `score` (`score_cumulative[0]`)
-is each player's Blizzard score (`score.blizzard_score`), as the game's.
+location is whose is drawn each episode. The other player is `Owner.ENEMY`, with its
+own bank, research, score and view (`players`). A player whose structures are all
+destroyed (flying ones count) loses, and both at once tie; the map's timer, 30 minutes
+of game time (PySC2's `game_steps_per_episode` for ladder maps, 28,800 game loops),
+ends the game in a tie. Fog of war is on. `score` (`score_cumulative[0]`) is each
+player's Blizzard score (`score.blizzard_score`), as the game's.
 
 Terrain, which no replay holds (docs/fidelity.md): the map is flat; units move over open
 ground inside the playable area (the box around every cell a ground unit was seen on);
