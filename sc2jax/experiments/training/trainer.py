@@ -694,7 +694,9 @@ def trained_agent(run_dir: str, map_name: str | None = None, temperature: float 
                             f"from {run_dir}")
     agent, params, meta = load_run(run_dir, step, best)
     config = agent.config
-    sim = build(dataclasses.replace(config, backend="simulator", bot=None)).sim
+    # A simulator run keeps its computer opponent; a real-game run's opponent stays there.
+    bot = config.bot if config.backend == "simulator" else None
+    sim = build(dataclasses.replace(config, backend="simulator", bot=bot)).sim
     return TrainedAgent(sim, actor_core(agent.network, temperature, config.functions),
                         params, config.agent, *describe_run(config, meta, run_dir))
 
