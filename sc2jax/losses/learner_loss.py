@@ -17,9 +17,10 @@ import jax
 import jax.numpy as jnp
 
 from sc2jax.environment.interface.dense import DenseAction
+from sc2jax.environment.interface.raw import RawAction
 from sc2jax.losses.actor_critic import a3c_loss, gae_targets, ppo_loss, vtrace_loss
-from sc2jax.networks import policy
 from sc2jax.networks.outputs import LSTMCarry
+from sc2jax.networks.raw_policy import policy_of
 from sc2jax.networks.unroll import unroll
 
 LossFn = Callable[[Any, "Trajectory"], tuple[jax.Array, dict[str, jax.Array]]]
@@ -31,7 +32,8 @@ class Trajectory(NamedTuple):
 
     Attributes:
       observation: padded observations, leaves [T+1, B, ...] (s_0 .. s_T).
-      action: `DenseAction` [T, B] taken at s_0 .. s_{T-1}.
+      action: `DenseAction` [T, B] taken at s_0 .. s_{T-1} (a `RawAction` for a raw
+        network).
       reward: [T, B] float32 reward after each action.
       discount: [T, B] float32, γ, or 0 where the episode terminated.
       first: [T+1, B] bool, True where an observation starts an episode (resets the
@@ -43,7 +45,7 @@ class Trajectory(NamedTuple):
     """
 
     observation: Mapping[str, jax.Array]
-    action: DenseAction
+    action: DenseAction | RawAction
     reward: jax.Array
     discount: jax.Array
     first: jax.Array
@@ -110,10 +112,11 @@ def make_actor_critic_loss(network: nn.Module, *, value_weight: float = 0.5,
         out = _unroll(network, params, batch)
         out_tm1 = jax.tree.map(lambda x: x[:t], out)
         available = batch.observation["available_actions_mask"][:t]
-        log_pi = policy.log_prob(out_tm1, batch.action, available).total
-        ent = policy.entropy(out_tm1, available)
+        pi = policy_of(out_tm1)
+        log_pi = pi.log_prob(out_tm1, batch.action, available).total
+        ent = pi.entropy(out_tm1, available)
         arg_entropy = jnp.stack(ent.arguments, axis=-1)
-        used = policy.used_arguments(batch.action.function)
+        used = pi.used_arguments(batch.action.function)
         discount = _discount(batch)
         if off_policy_correction != "none" and batch.behaviour_log_prob is None:
             raise ValueError(f"{off_policy_correction} needs trajectory.behaviour_log_prob")
@@ -143,7 +146,7 @@ def make_actor_critic_loss(network: nn.Module, *, value_weight: float = 0.5,
             "value_loss": jnp.mean(res.value_loss),
             "entropy_loss": jnp.mean(res.entropy_loss),
             "function_entropy": jnp.mean(ent.function),
-            # The screen argument's entropy at every visited state, used or not.
+            # The screen (raw: world) argument's entropy at every visited state, used or not.
             "screen_entropy": jnp.mean(ent.arguments[0]),
             "advantage": jnp.mean(res.advantage),
             "value": jnp.mean(out.value[:t]),

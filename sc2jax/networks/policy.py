@@ -79,12 +79,12 @@ def used_arguments(function_id: jax.Array) -> jax.Array:
     return jnp.asarray(FUNCTION_ARGS_MASK)[function_id]
 
 
-def _categorical_log_prob(logits: jax.Array, value: jax.Array) -> jax.Array:
+def categorical_log_prob(logits: jax.Array, value: jax.Array) -> jax.Array:
     log_p = jax.nn.log_softmax(logits, axis=-1)
     return jnp.take_along_axis(log_p, value.astype(jnp.int32)[..., None], axis=-1)[..., 0]
 
 
-def _categorical_entropy(logits: jax.Array) -> jax.Array:
+def categorical_entropy(logits: jax.Array) -> jax.Array:
     log_p = jax.nn.log_softmax(logits, axis=-1)
     return -jnp.sum(jnp.exp(log_p) * log_p, axis=-1)
 
@@ -100,20 +100,20 @@ def argument_log_prob(logits: Any, value: jax.Array) -> jax.Array:
       [B...] log-probabilities.
     """
     if isinstance(logits, PixelLogits):
-        return _categorical_log_prob(logits.logits, logits.to_index(value))
+        return categorical_log_prob(logits.logits, logits.to_index(value))
     if isinstance(logits, XYLogits):
-        return (_categorical_log_prob(logits.x, value[..., 0])
-                + _categorical_log_prob(logits.y, value[..., 1]))
-    return _categorical_log_prob(logits, value)
+        return (categorical_log_prob(logits.x, value[..., 0])
+                + categorical_log_prob(logits.y, value[..., 1]))
+    return categorical_log_prob(logits, value)
 
 
 def argument_entropy(logits: Any) -> jax.Array:
     """Entropy [B...] of one argument's distribution (see `argument_log_prob`)."""
     if isinstance(logits, PixelLogits):
-        return _categorical_entropy(logits.logits)
+        return categorical_entropy(logits.logits)
     if isinstance(logits, XYLogits):
-        return _categorical_entropy(logits.x) + _categorical_entropy(logits.y)
-    return _categorical_entropy(logits)
+        return categorical_entropy(logits.x) + categorical_entropy(logits.y)
+    return categorical_entropy(logits)
 
 
 def noise_sizes(logits: Any) -> tuple[int, ...]:
@@ -233,7 +233,7 @@ def log_prob(output: NetworkOutput, action: DenseAction,
     if not isinstance(action, DenseAction):
         raise TypeError(f"action must be a DenseAction, got {type(action).__name__}")
     logits = mask_function_logits(output.function_logits, available_actions)
-    function = _categorical_log_prob(logits, action.function)
+    function = categorical_log_prob(logits, action.function)
     used = used_arguments(action.function)
     args = tuple(jnp.where(used[..., i], argument_log_prob(lg, value), 0.0)
                  for i, (lg, value) in enumerate(zip(output.argument_logits, action.arguments)))
@@ -243,5 +243,5 @@ def log_prob(output: NetworkOutput, action: DenseAction,
 def entropy(output: NetworkOutput, available_actions: jax.Array) -> PolicyEntropy:
     """Entropies of the masked function distribution and of every argument head."""
     logits = mask_function_logits(output.function_logits, available_actions)
-    return PolicyEntropy(_categorical_entropy(logits),
+    return PolicyEntropy(categorical_entropy(logits),
                          tuple(argument_entropy(lg) for lg in output.argument_logits))

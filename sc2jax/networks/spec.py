@@ -15,6 +15,7 @@ from collections.abc import Sequence
 import numpy as np
 
 from sc2jax.environment.interface.features import Feature
+from sc2jax.environment.interface.functions import RAW_FUNCTIONS
 from sc2jax.environment.interface.specs import ObservationFormat, action_spec, observation_spec
 
 DEFAULT_NONSPATIAL_KEYS = ("player",)
@@ -35,7 +36,11 @@ class NetworkSpec:
         concatenated into the non-spatial input vector.
       num_functions: the number of function ids (573).
       argument_sizes: for each of the 13 argument types in `TYPES` order, (x, y) for a
-        point and (n,) for a scalar in [0, n).
+        point and (n,) for a scalar in [0, n); with the raw action space, for each of
+        `RawAction`'s 4 arguments: `world` (x, y) the raw grid, `queued` (2,), `units`
+        and `target_unit` (max_units,), a choice of `raw_units` rows.
+      action_space: "features" (`FUNCTIONS`) or "raw" (`RAW_FUNCTIONS`: the raw
+        networks, which read `raw_units`).
     """
 
     screen_layers: tuple[Feature, ...]
@@ -45,6 +50,7 @@ class NetworkSpec:
     nonspatial: tuple[tuple[str, int], ...]
     num_functions: int
     argument_sizes: tuple[tuple[int, ...], ...]
+    action_space: str = "features"
 
     @classmethod
     def from_format(cls, fmt: ObservationFormat,
@@ -74,20 +80,27 @@ class NetworkSpec:
             if key not in allowed:
                 raise ValueError(f"unknown non-spatial key {key!r}; allowed: {allowed}")
             nonspatial.append((key, int(np.prod(obs_spec[key].shape))))
+        num_functions = int(act_spec.function.maximum) + 1
         sizes = []
         for field in act_spec[1:]:
             if field.shape == (2,):
                 sizes.append((int(field.maximum[0]) + 1, int(field.maximum[1]) + 1))
             else:
                 sizes.append((int(field.maximum) + 1,))
+        if fmt.action_space == "raw":
+            if fmt.raw_resolution is None:
+                raise ValueError("a raw network needs the format's raw_resolution (the grid "
+                                 "of the world point), not None (the map's own size)")
+            n = fmt.max_units
+            num_functions, sizes = len(RAW_FUNCTIONS), [fmt.raw_resolution, (2,), (n,), (n,)]
         screen_c, sy, sx = obs_spec["feature_screen"].shape
         minimap_c, my, mx = obs_spec["feature_minimap"].shape
         assert screen_c == len(fmt.screen_layers) and minimap_c == len(fmt.minimap_layers)
         return cls(
             screen_layers=tuple(fmt.screen_layers), minimap_layers=tuple(fmt.minimap_layers),
             screen_size=(sx, sy), minimap_size=(mx, my), nonspatial=tuple(nonspatial),
-            num_functions=int(act_spec.function.maximum) + 1,
-            argument_sizes=tuple(sizes))
+            num_functions=num_functions, argument_sizes=tuple(sizes),
+            action_space=fmt.action_space)
 
     @property
     def nonspatial_size(self) -> int:

@@ -3,6 +3,11 @@
 UI functions are available by PySC2's conditions (reference/pysc2_facts.md §2.2); ability
 functions are the union of the command cards of the player's selected units, exposed
 through their general functions (PySC2's default `hide_specific_actions=True`).
+
+PySC2 gives raw agents no available actions; sc2jax's padded observations give them
+their `available_actions_mask` over the raw functions (`raw_available_actions`): a raw
+function is available when its feature function would be with all the player's units
+selected (the union of every own unit's card).
 """
 
 from __future__ import annotations
@@ -13,7 +18,13 @@ import numpy as np
 from sc2jax.environment.engine.rules import morphs, production, research
 from sc2jax.environment.engine.rules.state import Owner, Units
 from sc2jax.environment.engine.rules.units import UNIT_DATA, UnitType, game_name
-from sc2jax.environment.interface.functions import ALWAYS, FUNCTIONS, NUM_FUNCTIONS
+from sc2jax.environment.interface.functions import (
+    ALWAYS,
+    FUNCTIONS,
+    NUM_FUNCTIONS,
+    RAW_FUNCTIONS,
+)
+from sc2jax.environment.interface.functions import FunctionType as T
 
 
 def _make_function(unit_type: UnitType) -> str:
@@ -210,3 +221,34 @@ def available_actions(units: Units, card_table=CARD_TABLE, researched=None):
     for name, condition in conditions.items():
         mask = mask & (~only(name) | condition)
     return mask
+
+
+_FEATURE_TYPE = {T.raw_no_op: T.no_op, T.raw_move_camera: T.move_camera,
+                 T.raw_cmd: T.cmd_quick, T.raw_cmd_pt: T.cmd_screen,
+                 T.raw_cmd_unit: T.cmd_screen, T.raw_autocast: T.autocast}
+
+
+def _feature_table() -> np.ndarray:
+    """int32[len(RAW_FUNCTIONS)]: the feature function of each raw function, or -1."""
+    by_ability = {}
+    for f in FUNCTIONS:
+        by_ability.setdefault((f.ability_id, f.function_type), f.id)
+    by_ability[(0, T.no_op)] = FUNCTIONS.no_op.id
+    by_ability[(0, T.move_camera)] = FUNCTIONS.move_camera.id
+    return np.array([by_ability.get((r.ability_id, _FEATURE_TYPE[r.function_type]), -1)
+                     for r in RAW_FUNCTIONS], np.int32)
+
+
+FEATURE_OF_RAW = _feature_table()
+"""int32[564]: the `FUNCTIONS` id that sends each raw function's ability in the same way
+(-1 for the `UnloadUnit_*` functions, which have none)."""
+
+
+def raw_available_actions(units: Units, card_table=CARD_TABLE, researched=None):
+    """bool[564]: the raw functions the player may call, each available when its feature
+    function (`FEATURE_OF_RAW`) is with every own unit selected (`available_actions`'
+    arguments)."""
+    everyone = units.replace(selected=units.alive & (units.owner == Owner.SELF))
+    features = available_actions(everyone, card_table, researched)
+    table = jnp.asarray(FEATURE_OF_RAW)
+    return (table >= 0) & features[jnp.maximum(table, 0)]

@@ -11,6 +11,7 @@ from sc2jax.environment.engine.availability import (
     army_count,
     available_actions,
     idle_worker_count,
+    raw_available_actions,
 )
 from sc2jax.environment.engine.render import Renderer, player_relative
 from sc2jax.environment.engine.rules import liftoff, players, production, research
@@ -293,7 +294,8 @@ def observe(state: EnvState, renderer: Renderer, card_table=CARD_TABLE,
                               specs.MAX_UPGRADES),
         "home_race_requested": jnp.array([tables.TERRAN], jnp.int32),
         "away_race_requested": jnp.zeros((1,), jnp.int32),
-        "available_actions_mask": available_actions(
+        "available_actions_mask": (raw_available_actions if fmt.action_space == "raw"
+                                   else available_actions)(
             units, card_table, state.researched if economy else None),
     }
     if fmt.use_feature_units or fmt.use_raw_units:

@@ -16,6 +16,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from sc2jax.environment.engine.actions import RawCommand, apply_raw
+from sc2jax.environment.engine.availability import FEATURE_OF_RAW
 from sc2jax.environment.engine.observation import rows_to_slots
 from sc2jax.environment.engine.render import Renderer
 from sc2jax.environment.engine.rules.state import NO_TARGET, EnvState
@@ -24,25 +25,6 @@ from sc2jax.environment.interface.functions import FunctionType as T
 from sc2jax.environment.interface.protocol_enums import ActionResult
 from sc2jax.environment.interface.raw import RawAction
 
-_FEATURE_TYPE = {T.raw_no_op: T.no_op, T.raw_move_camera: T.move_camera,
-                 T.raw_cmd: T.cmd_quick, T.raw_cmd_pt: T.cmd_screen,
-                 T.raw_cmd_unit: T.cmd_screen, T.raw_autocast: T.autocast}
-
-
-def _feature_table() -> np.ndarray:
-    """int32[len(RAW_FUNCTIONS)]: the feature function of each raw function, or -1."""
-    by_ability = {}
-    for f in FUNCTIONS:
-        by_ability.setdefault((f.ability_id, f.function_type), f.id)
-    by_ability[(0, T.no_op)] = FUNCTIONS.no_op.id
-    by_ability[(0, T.move_camera)] = FUNCTIONS.move_camera.id
-    return np.array([by_ability.get((r.ability_id, _FEATURE_TYPE[r.function_type]), -1)
-                     for r in RAW_FUNCTIONS], np.int32)
-
-
-FEATURE_OF_RAW = _feature_table()
-"""int32[564]: the `FUNCTIONS` id that sends each raw function's ability in the same way
-(-1 for the `UnloadUnit_*` functions, which have none)."""
 SELECTS = np.array([r.function_type not in (T.raw_no_op, T.raw_move_camera)
                     for r in RAW_FUNCTIONS])
 """bool[564]: the raw functions that select their units (they take `unit_tags`)."""

@@ -11,7 +11,8 @@ Two observation layouts share these specs:
   lists are padded with zero rows (no real unit has type 0), `last_actions` with
   -1, `action_result` and `alerts` with 0, the available functions are a boolean mask
   over all function ids named `available_actions_mask` (not PySC2's `available_actions`,
-  a list of ids), and `feature_units`/`raw_units` are int32 (JAX runs without x64).
+  a list of ids; with `action_space="raw"` a mask over the 564 `RAW_FUNCTIONS`, which
+  PySC2 does not give), and `feature_units`/`raw_units` are int32 (JAX runs without x64).
 """
 
 from __future__ import annotations
@@ -27,7 +28,7 @@ from sc2jax.environment.interface import observation_tables as tables
 from sc2jax.environment.interface.arguments import Size, normalize_size, resolve_types
 from sc2jax.environment.interface.dense import DenseAction
 from sc2jax.environment.interface.features import MINIMAP_FEATURES, SCREEN_FEATURES, select_layers
-from sc2jax.environment.interface.functions import NUM_FUNCTIONS
+from sc2jax.environment.interface.functions import NUM_FUNCTIONS, RAW_FUNCTIONS
 
 MIN_RESOLUTION = 16
 MAX_RESOLUTION = 256
@@ -208,7 +209,8 @@ def observation_spec(fmt: ObservationFormat = ObservationFormat(), *,
     }
     if padded:
         out["available_actions_mask"] = specs.BoundedArray(
-            (NUM_FUNCTIONS,), np.bool_, False, True, name="available_actions_mask")
+            (len(RAW_FUNCTIONS) if fmt.action_space == "raw" else NUM_FUNCTIONS,), np.bool_,
+            False, True, name="available_actions_mask")
     else:
         if fmt.action_space != "raw":  # PySC2 gives raw agents none.
             out["available_actions"] = VariableLengthArray(

@@ -29,13 +29,14 @@ from sc2jax.checks import check_positive_int
 from sc2jax.environment.engine.simulator import Simulator
 from sc2jax.environment.interface import narrow
 from sc2jax.environment.interface.dense import DenseAction
-from sc2jax.environment.interface.functions import FUNCTIONS, NUM_FUNCTIONS
+from sc2jax.environment.interface.functions import FUNCTIONS, RAW_FUNCTIONS
 from sc2jax.environment.interface.specs import ObservationFormat
 from sc2jax.environment.interface.suggest import did_you_mean
 from sc2jax.losses.learner_loss import Trajectory
 from sc2jax.networks import policy
 from sc2jax.networks.factory import act as feed_forward_act
 from sc2jax.networks.fully_conv_lstm import FullyConvLSTM
+from sc2jax.networks.raw_policy import policy_of
 
 
 class ActorCore(NamedTuple):
@@ -46,7 +47,8 @@ class ActorCore(NamedTuple):
         feed-forward networks).
       act: `(params, key, carry, observation, first) -> (carry, action, log_prob)` with
         observation leaves [B, ...], first bool[B] (True at an episode's first
-        observation), the sampled `DenseAction` [B] and its log-probability float32[B].
+        observation), the sampled `DenseAction` [B] (`RawAction` of a raw network) and
+        its log-probability float32[B].
         The observation must have passed through `observe`.
       observe: environment observation -> the agent's observation (the action set
         restricted); actors store what it returns, so the learner sees the same masks.
@@ -57,8 +59,10 @@ class ActorCore(NamedTuple):
     observe: Callable[[dict], dict]
 
 
-def function_mask(functions: Sequence[int | str] | None) -> np.ndarray | None:
-    """bool[573] of the named function ids or names (None: every function).
+def function_mask(functions: Sequence[int | str] | None, raw: bool = False
+                  ) -> np.ndarray | None:
+    """bool[573] of the named function ids or names (None: every function); with `raw`,
+    bool[564] of `RAW_FUNCTIONS`' names or ids.
 
     Raises:
       ValueError: for an unknown function, or a set without no_op (which is always
@@ -66,13 +70,14 @@ def function_mask(functions: Sequence[int | str] | None) -> np.ndarray | None:
     """
     if functions is None:
         return None
-    mask = np.zeros(NUM_FUNCTIONS, bool)
+    table = RAW_FUNCTIONS if raw else FUNCTIONS
+    mask = np.zeros(len(table), bool)
     for function in functions:
-        if function not in FUNCTIONS:
-            hint = did_you_mean(function, [f.name for f in FUNCTIONS])
-            raise ValueError(f"unknown function {function!r}; give PySC2 names or ids "
-                             f"0..{NUM_FUNCTIONS - 1}{hint}")
-        mask[FUNCTIONS[function].id] = True
+        if function not in table:
+            hint = did_you_mean(function, [f.name for f in table])
+            raise ValueError(f"unknown {'raw ' if raw else ''}function {function!r}; give "
+                             f"PySC2 names or ids 0..{len(table) - 1}{hint}")
+        mask[table[function].id] = True
     if not mask[0]:
         raise ValueError(f"the action set {list(functions)} must include no_op")
     return mask
@@ -80,20 +85,21 @@ def function_mask(functions: Sequence[int | str] | None) -> np.ndarray | None:
 
 def actor_core(network: nn.Module, temperature: float = 1.0,
                functions: Sequence[int | str] | None = None) -> ActorCore:
-    """The acting functions of any of the four networks.
+    """The acting functions of any of the networks.
 
     Args:
-      network: an AtariNet, FullyConv, FullyConvLSTM or ARFullyConv.
+      network: an AtariNet, FullyConv, FullyConvLSTM, ARFullyConv or RawFullyConv.
       temperature: softmax temperature of the sampled actions (> 0).
       functions: restrict the agent to these function names or ids (None: all 573,
-        the paper's setting); they are still masked by availability.
+        the paper's setting; a raw network's of the 564 `RAW_FUNCTIONS`); they are
+        still masked by availability.
 
     Raises:
       ValueError: for a non-positive temperature or a bad action set.
     """
     if not temperature > 0:
         raise ValueError(f"temperature must be > 0, got {temperature!r}")
-    mask = function_mask(functions)
+    mask = function_mask(functions, network.spec.action_space == "raw")
 
     def observe(obs: dict) -> dict:
         if mask is None:
@@ -111,7 +117,8 @@ def actor_core(network: nn.Module, temperature: float = 1.0,
     def act(params, key, carry, obs, first):
         del first
         action, out = feed_forward_act(network, params, key, obs, temperature)
-        return carry, action, policy.log_prob(out, action, obs["available_actions_mask"]).total
+        return carry, action, policy_of(out).log_prob(
+            out, action, obs["available_actions_mask"]).total
 
     return ActorCore(lambda batch_size: None, act, observe)
 

@@ -17,7 +17,7 @@ from sc2jax.environment.sc2_env import default_score_index, simulator_computer
 from sc2jax.environment.sc2api.game_env import Bot
 from sc2jax.experiments.training.actor import function_mask
 from sc2jax.losses.learner_loss import OFF_POLICY_CORRECTIONS
-from sc2jax.networks.factory import COMPUTE_DTYPES, NETWORKS
+from sc2jax.networks.factory import COMPUTE_DTYPES, NETWORKS, RAW_NETWORKS
 
 BACKENDS = ("simulator", "sc2")
 
@@ -46,7 +46,11 @@ class TrainConfig:
         the outcome, -2 the Blizzard score, k >= 0 `score_cumulative[k]`.
       reward_scale: multiplies the rewards the learner sees (the logged scores stay the
         game's): for rewards far from 1, such as the Blizzard score's.
-      agent: the network: "atari", "fullyconv", "fullyconv_lstm" or "arfullyconv".
+      agent: the network: "atari", "fullyconv", "fullyconv_lstm" or "arfullyconv" (the
+        feature interface), or "raw_fullyconv" (PySC2's raw interface: `raw_units`, the
+        564 `RAW_FUNCTIONS`, the world point on a raw grid of minimap_size).
+      max_units: rows of `raw_units` a raw network reads (more units than that are not
+        seen, nor commanded).
       screen_size, minimap_size: feature-layer resolutions (16..256).
       screen_features, minimap_features: layer names (None: all of them).
       functions: restrict the agent's action set to these PySC2 function names (None:
@@ -63,7 +67,7 @@ class TrainConfig:
       rmsprop_decay, rmsprop_epsilon: RMSProp's settings.
       non_point_rate_scale: multiplies the learning rate of every parameter outside the
         spatial-argument heads (1: the paper's single rate). Not for "arfullyconv", whose
-        spatial heads are part of its autoregressive chain.
+        spatial heads are part of its autoregressive chain, nor "raw_fullyconv".
       max_grad_norm: global gradient-norm clipping (0: none).
       off_policy_correction: the policy gradient: "none" (A3C's n-step returns),
         "vtrace", or "ppo" (PPO's clipped surrogate, with GAE advantages fixed per batch
@@ -101,6 +105,7 @@ class TrainConfig:
     score_index: int | None = None
     reward_scale: float = 1.0
     agent: str = "fullyconv"
+    max_units: int = 64
     screen_size: int = 64
     minimap_size: int = 64
     screen_features: tuple[str, ...] | None = None
@@ -165,7 +170,7 @@ class TrainConfig:
                 raise ValueError(f"{name} must be a sequence of layer names, got {value!r}")
             if value is not None:
                 object.__setattr__(self, name, tuple(value))
-        for name in ("step_mul", "num_envs", "unroll_length", "total_steps",
+        for name in ("step_mul", "num_envs", "unroll_length", "total_steps", "max_units",
                      "updates_per_chunk", "ppo_epochs", "ppo_minibatches"):
             check_positive_int(name, getattr(self, name))
         if self.num_envs % self.ppo_minibatches:
@@ -184,10 +189,13 @@ class TrainConfig:
         for name in ("value_weight", "entropy_weight", "max_grad_norm"):
             if not getattr(self, name) >= 0:
                 raise ValueError(f"{name} must be >= 0, got {getattr(self, name)!r}")
-        if self.non_point_rate_scale != 1.0 and self.agent == "arfullyconv":
+        if self.agent in RAW_NETWORKS and self.backend != "simulator":
+            raise ValueError(f"agent {self.agent!r} plays the raw interface, which needs "
+                             f"backend 'simulator'; got {self.backend!r}")
+        if self.non_point_rate_scale != 1.0 and self.agent in ("arfullyconv", *RAW_NETWORKS):
             raise ValueError(f"non_point_rate_scale={self.non_point_rate_scale!r} needs a "
                              f"network with point heads (atari, fullyconv, fullyconv_lstm), "
-                             f"not 'arfullyconv'; use 1")
+                             f"not {self.agent!r}; use 1")
         if not 0.0 <= self.discount <= 1.0:
             raise ValueError(f"discount must be in [0, 1], got {self.discount!r}")
         if not 0.0 <= self.rmsprop_decay < 1.0:
@@ -210,7 +218,7 @@ class TrainConfig:
             raise ValueError(f"init_from must be a run directory or None, got "
                              f"{self.init_from!r}")
         self.observation_format()  # checks the resolutions and layer names
-        function_mask(self.functions)  # checks the action set
+        function_mask(self.functions, self.agent in RAW_NETWORKS)  # checks the action set
 
     def opponent(self) -> Bot | None:
         """The `game_env.Bot` of `bot`."""
@@ -227,9 +235,13 @@ class TrainConfig:
         return default_score_index(self.map_name)
 
     def observation_format(self) -> ObservationFormat:
+        raw = self.agent in RAW_NETWORKS
         return ObservationFormat(screen_size=self.screen_size, minimap_size=self.minimap_size,
                                  screen_features=self.screen_features,
-                                 minimap_features=self.minimap_features)
+                                 minimap_features=self.minimap_features,
+                                 use_raw_units=raw, max_units=self.max_units,
+                                 raw_resolution=self.minimap_size if raw else None,
+                                 action_space="raw" if raw else "features")
 
     @property
     def steps_per_update(self) -> int:

@@ -60,7 +60,10 @@ _TABLE = {
     "score_index": ("score_index", flags.DEFINE_integer, "The reward (simulator): unset for "
                     "the map's default (the mini-games' score, the outcome on ladder maps), "
                     "-1 the outcome, -2 the Blizzard score, k >= 0 score_cumulative[k]."),
-    "network": ("agent", flags.DEFINE_string, f"Network: one of {sorted(NETWORKS)}."),
+    "network": ("agent", flags.DEFINE_string, f"Network: one of {sorted(NETWORKS)} "
+                "(raw_fullyconv plays PySC2's raw interface)."),
+    "max_units": ("max_units", flags.DEFINE_integer,
+                  "Rows of raw_units a raw network reads (raw_fullyconv)."),
     "screen_size": ("screen_size", flags.DEFINE_integer, "Feature-screen resolution (16..256)."),
     "minimap_size": ("minimap_size", flags.DEFINE_integer,
                      "Feature-minimap resolution (16..256)."),
@@ -69,7 +72,8 @@ _TABLE = {
     "minimap_features": ("minimap_features", flags.DEFINE_string,
                          "Comma-separated minimap layers, or 'all'."),
     "functions": ("functions", flags.DEFINE_string, "The agent's action set: comma-separated "
-                  "PySC2 function names, or 'all' (the paper's setting)."),
+                  "PySC2 function names (RAW_FUNCTIONS' for a raw network), or 'all' (the "
+                  "paper's setting)."),
     "step_mul": ("step_mul", flags.DEFINE_integer, "Game loops per agent step."),
     "num_envs": ("num_envs", flags.DEFINE_integer, "Environments stepped together."),
     "unroll_length": ("unroll_length", flags.DEFINE_integer, "K: agent steps per trajectory."),

@@ -184,3 +184,19 @@ def test_raw_units_report_orders_as_raw_functions():
     assert cc[FU.order_length] == 2
     assert cc[FU.order_id_0] == cc[FU.order_id_1] == RAW_FUNCTIONS.Train_SCV_quick.id
     assert cc[FU.order_id_2] == 0
+
+
+def test_raw_agents_see_the_raw_functions_their_units_can_call():
+    start, _, _, _, _, raw_sim = programs()
+    mask = np.asarray(jax.jit(lambda s: raw_sim.observe(s)["available_actions_mask"])(start))
+    assert mask.shape == (len(RAW_FUNCTIONS),)
+    available = {RAW_FUNCTIONS[i].name for i in np.flatnonzero(mask)}
+    # The Command Center trains SCVs; the SCVs move, gather and build a Supply Depot (but
+    # no Barracks without one); nothing trains a Marine. Only general functions, as the
+    # feature interface shows them.
+    assert {"no_op", "raw_move_camera", "Train_SCV_quick", "Move_pt", "Move_unit",
+            "Harvest_Gather_unit", "Build_SupplyDepot_pt", "Attack_pt", "Attack_unit",
+            "Smart_unit"} <= available
+    assert not {"Train_Marine_quick", "Build_Barracks_pt", "Attack_Attack_pt",
+                "UnloadUnit_quick"} & available
+    assert mask[RAW_FUNCTIONS.Build_Refinery_pt.id] == mask[RAW_FUNCTIONS.Move_pt.id]
