@@ -49,7 +49,8 @@ def test_make_network_unknown_name_lists_allowed():
         make_network("resnet", FMT)
     with pytest.raises(TypeError, match="ObservationFormat or a NetworkSpec"):
         make_network("atari", 64)
-    assert sorted(NETWORKS) == ["arfullyconv", "atari", "fullyconv", "fullyconv_lstm"]
+    assert sorted(NETWORKS) == ["arfullyconv", "atari", "fullyconv", "fullyconv_lstm",
+                               "raw_fullyconv"]
 
 
 def test_wrong_observation_shape_names_the_key():
