@@ -18,6 +18,7 @@ def _marine_row(raw_units):
     return int(np.flatnonzero(raw_units[:, FU.alliance] == 1)[0])
 
 
+@pytest.mark.slow
 def test_a_raw_environment_moves_a_unit_named_by_its_row():
     env = make("MoveToBeacon", seed=3, **RAW)
     assert isinstance(env.action_spec(), RawAction)
@@ -42,6 +43,7 @@ def test_a_raw_environment_moves_a_unit_named_by_its_row():
         env.step(np.zeros(3))
 
 
+@pytest.mark.slow
 def test_a_batch_of_raw_environments_takes_calls_or_a_raw_action():
     env = make("MoveToBeacon", num_envs=2, seed=1, **RAW)
     ts = env.reset()

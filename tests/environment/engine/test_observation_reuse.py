@@ -113,6 +113,7 @@ def test_previous_of_another_shape_is_refused(key, shape):
         sim.observe(state, previous={})
 
 
+@pytest.mark.slow
 def test_a_subset_of_layers_written_into_the_last():
     fmt = ObservationFormat(screen_size=24, minimap_size=16,
                             screen_features=("creep", "selected", "height_map"),

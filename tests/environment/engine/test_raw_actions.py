@@ -106,6 +106,7 @@ CASES = {
 }
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("case", sorted(CASES))
 def test_a_raw_action_and_its_feature_action_give_the_same_game(case):
     start, act_features, act_raw, raw_units_of, run, raw_sim = programs()
@@ -124,6 +125,7 @@ def test_a_raw_action_and_its_feature_action_give_the_same_game(case):
     assert not np.array_equal(jax.device_get(by_raw.units.pos), jax.device_get(start.units.pos))
 
 
+@pytest.mark.slow
 def test_raw_move_camera_keeps_the_selection_and_unsupported_commands_do_nothing():
     start, _, act_raw, raw_units_of, _, raw_sim = programs()
     rows, grid = raw_units_of(start), raw_sim.renderer.raw_grid
@@ -148,6 +150,7 @@ def test_raw_move_camera_keeps_the_selection_and_unsupported_commands_do_nothing
     assert np.flatnonzero(marines.units.selected).tolist() == [SCVS[0]]
 
 
+@pytest.mark.slow
 def test_the_raw_grid_is_pysc2s_and_rows_name_the_units_listed():
     start, _, act_raw, raw_units_of, _, raw_sim = programs()
     rows = np.asarray(raw_units_of(start))
@@ -174,6 +177,7 @@ def test_the_raw_grid_is_pysc2s_and_rows_name_the_units_listed():
             RAW_FUNCTIONS.no_op(), rows[:10], (64, 64)))))
 
 
+@pytest.mark.slow
 def test_raw_units_report_orders_as_raw_functions():
     start, _, act_raw, raw_units_of, _, raw_sim = programs()
     rows = raw_units_of(start)
@@ -186,6 +190,7 @@ def test_raw_units_report_orders_as_raw_functions():
     assert cc[FU.order_id_2] == 0
 
 
+@pytest.mark.slow
 def test_raw_agents_see_the_raw_functions_their_units_can_call():
     start, _, _, _, _, raw_sim = programs()
     mask = np.asarray(jax.jit(lambda s: raw_sim.observe(s)["available_actions_mask"])(start))

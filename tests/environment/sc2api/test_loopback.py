@@ -62,6 +62,7 @@ def _loopback(server, map_name, steps, **options):
     return kinds
 
 
+@pytest.mark.slow
 def test_move_to_beacon_over_the_api_is_the_simulator_bit_for_bit(server):
     # 250 steps pass the 120 s timer: the game ends (player_result, discount 0) and
     # restarts.

@@ -47,6 +47,7 @@ def _initial_state(agent, seed: int, rates=None):
     return placed_as_restored(jax.vmap(agent.initial_state)(keys, rates))
 
 
+@pytest.mark.slow
 def test_unroll_emits_a_consistent_trajectory(agent):
     k, b = TINY.unroll_length, TINY.num_envs
     unroll = make_unroll(agent.sim, agent.core, k)
