@@ -15,8 +15,9 @@ so the network reads the unit list, not the screen:
   the units' masked mean and max, and the non-spatial features.
 
 Heads: the value, the raw function (564, masked by availability) and `queued` from the
-state; `world` from a 1x1 convolution of the grid output with the broadcast
-non-spatial features (a softmax over the grid's pixels, as FullyConv's point heads);
+state; `world` from a 1x1 convolution of the grid output, the scattered unit encodings
+and the broadcast non-spatial features (a softmax over the grid's pixels, as
+FullyConv's point heads);
 the commanded rows (`units`, one Bernoulli logit each) and the target row (one softmax
 over the rows) from a dense layer on each row's encoding joined with the state. The
 policy over these outputs is `raw_policy`.
@@ -153,8 +154,8 @@ class RawFullyConv(nn.Module):
         m = FullyConvStack(self.dtype, name="minimap_conv")(
             SpatialEncoder(self.spec.minimap_layers, "feature_minimap", self.dtype,
                            name="minimap_embed")(minimap))
-        g = FullyConvStack(self.dtype, name="grid_conv")(
-            scatter_units(encoding, rows, real, grid))
+        scattered = scatter_units(encoding, rows, real, grid)
+        g = FullyConvStack(self.dtype, name="grid_conv")(scattered)
         ns = nonspatial_features(self.spec, obs).astype(self.dtype)
         weights = real[..., None].astype(self.dtype)
         mean = jnp.sum(encoding * weights, axis=1) / jnp.maximum(jnp.sum(weights, axis=1), 1)
@@ -162,7 +163,11 @@ class RawFullyConv(nn.Module):
         b = rows.shape[0]
         h = nn.relu(nn.Dense(self.hidden, dtype=self.dtype, name="fc")(jnp.concatenate(
             [g.reshape(b, -1), m.reshape(b, -1), mean, largest, ns], axis=-1)))
-        state = jnp.concatenate([g, broadcast_vector(ns, g.shape[1], g.shape[2])], axis=-1)
+        # The units' encodings beside the convolutions' output: a sparse map can switch
+        # every ReLU of the convolutions off (their biases driven below the few non-zero
+        # inputs), which left the world point uniform in a first MoveToBeacon run.
+        state = jnp.concatenate([g, scattered, broadcast_vector(ns, g.shape[1], g.shape[2])],
+                                axis=-1)
         per_row = jnp.concatenate(
             [encoding, jnp.broadcast_to(h[:, None], (b, num_rows, self.hidden))], axis=-1)
         return RawNetworkOutput(
