@@ -163,9 +163,9 @@ class RawFullyConv(nn.Module):
         b = rows.shape[0]
         h = nn.relu(nn.Dense(self.hidden, dtype=self.dtype, name="fc")(jnp.concatenate(
             [g.reshape(b, -1), m.reshape(b, -1), mean, largest, ns], axis=-1)))
-        # The units' encodings beside the convolutions' output: a sparse map can switch
-        # every ReLU of the convolutions off (their biases driven below the few non-zero
-        # inputs), which left the world point uniform in a first MoveToBeacon run.
+        # The units' encodings beside the convolutions' output: training can switch every
+        # ReLU of the convolutions off on so sparse a map (docs/results.md), and the
+        # encodings keep each unit's pixel in the world head's view.
         state = jnp.concatenate([g, scattered, broadcast_vector(ns, g.shape[1], g.shape[2])],
                                 axis=-1)
         per_row = jnp.concatenate(
