@@ -84,6 +84,10 @@ class TrainConfig:
         device d beside the learner on device 0 (`device_actor`, the split loop: acting
         overlaps learning, the policy lags by up to 2 updates, which V-trace corrects;
         the environments are not checkpointed).
+      pipelined: act for the next batch while learning from the last, in one compiled
+        program (`compiled_loop`): the policy acts one update behind, as with
+        actor_device, but the run stays one program and resumes exactly (simulator, no
+        actor_device, updates_per_chunk >= 2).
       seed: the run's seed (parameters, environments and actions).
       updates_per_chunk: updates between two host calls (logging).
       checkpoint_interval_s: seconds between checkpoints (one is always written at the end).
@@ -131,6 +135,7 @@ class TrainConfig:
     gae_lambda: float = 0.95
     compute_dtype: str = "float32"
     actor_device: int | None = None
+    pipelined: bool = False
     seed: int = 0
     updates_per_chunk: int = 10
     checkpoint_interval_s: float = 300.0
@@ -206,6 +211,15 @@ class TrainConfig:
                 raise ValueError(f"actor_device={self.actor_device!r} needs backend "
                                  f"'simulator' (the real game's actors are its processes); "
                                  f"use None")
+        if not isinstance(self.pipelined, bool):
+            raise ValueError(f"pipelined must be a bool, got {self.pipelined!r}")
+        if self.pipelined and (self.backend != "simulator" or self.actor_device is not None
+                               or self.updates_per_chunk < 2):
+            raise ValueError(
+                f"pipelined=True acts beside learning inside a chunk of the compiled loop: it "
+                f"needs backend 'simulator' (got {self.backend!r}), no actor_device (got "
+                f"{self.actor_device!r}; the split loop already acts beside learning) and "
+                f"updates_per_chunk >= 2 (got {self.updates_per_chunk!r})")
         for name in ("warmup_updates", "eval_episodes", "best_eval_interval"):
             check_non_negative_int(name, getattr(self, name))
         check_positive_int("best_eval_episodes", self.best_eval_episodes)

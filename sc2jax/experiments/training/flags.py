@@ -116,6 +116,9 @@ _TABLE = {
                      "Act on this local device beside the learner on device 0 (the split "
                      "loop: acting overlaps learning; use V-trace). Unset: one compiled "
                      "program acts, then learns."),
+    "pipelined": ("pipelined", flags.DEFINE_bool,
+                  "Act for the next batch while learning from the last, in one compiled "
+                  "program (the policy one update behind; use V-trace or PPO)."),
     "seed": ("seed", flags.DEFINE_integer, "Random seed."),
     "updates_per_chunk": ("updates_per_chunk", flags.DEFINE_integer,
                           "Updates between log rows."),

@@ -130,7 +130,7 @@ class Agent:
         (one run's chunk and a sweep's run-by-run chunk share their compiled step)."""
         return self._program(("chunk", num_runs), lambda: make_train_chunk(
             self._unroll(), self.learner, self.config.updates_per_chunk,
-            num_runs=num_runs))
+            num_runs=num_runs, pipelined=self.config.pipelined))
 
     def _unroll(self):
         return self._program("unroll", lambda: make_unroll(self.sim, self.core,

@@ -99,6 +99,37 @@ def test_scan_and_loop_chunks_agree_and_learn(agent):
 
 
 @pytest.mark.slow
+def test_a_pipelined_chunk_acts_one_update_behind(agent):
+    unroll = make_unroll(agent.sim, agent.core, TINY.unroll_length)
+    state = _initial_state(agent, 3)
+    act, update = jax.jit(unroll.unroll), jax.jit(agent.learner.update)
+    # By hand: batches 1 and 2 acted with the first parameters, batch 3 with those after
+    # one update; each learnt in turn.
+    actor, batch1, episodes1 = act(state.learner.params, state.actor)
+    actor, batch2, episodes2 = act(state.learner.params, actor)
+    learner, _ = update(state.learner, batch1)
+    actor, batch3, episodes3 = act(learner.params, actor)
+    learner, _ = update(learner, batch2)
+    learner, last = update(learner, batch3)
+    close = lambda a, b: np.testing.assert_allclose(a, b, rtol=2e-4, atol=1e-6)  # noqa: E731
+    for scan in (False, True):
+        chunk = make_train_chunk(unroll, agent.learner, 3, scan=scan, pipelined=True)
+        out, metrics, episodes = chunk(jax.tree.map(jnp.array, state))  # donated
+        assert int(out.learner.update) == 3 and metrics["loss"].shape == (3,)
+        jax.tree.map(close, out.learner.params, learner.params)
+        close(metrics["loss"][2], last["loss"])
+        jax.tree.map(np.testing.assert_array_equal, episodes,
+                     jax.tree.map(lambda *e: np.stack(e), episodes1, episodes2, episodes3))
+        np.testing.assert_array_equal(out.actor.key, actor.key)
+    # Acting one update behind is another run than acting with the newest parameters.
+    plain, _, _ = make_train_chunk(unroll, agent.learner, 3)(jax.tree.map(jnp.array, state))
+    assert not np.allclose(plain.learner.params["params"]["value"]["kernel"],
+                           out.learner.params["params"]["value"]["kernel"])
+    with pytest.raises(ValueError, match="needs updates_per_chunk >= 2, got 1"):
+        make_train_chunk(unroll, agent.learner, 1, pipelined=True)
+
+
+@pytest.mark.slow
 def test_non_point_rate_scale_scales_all_but_the_point_heads(agent):
     unroll = make_unroll(agent.sim, agent.core, TINY.unroll_length)
     state = _initial_state(agent, 2)

@@ -64,6 +64,10 @@ SWEEP = TrainConfig(**{**PERIODIC.to_json(), "eval_episodes": 2})
     (dict(gae_lambda=-0.1), r"gae_lambda must be in \[0, 1\], got -0.1"),
     (dict(actor_device=-1), "actor_device must be an int >= 0, got -1"),
     (dict(backend="sc2", actor_device=0), "actor_device=0 needs backend 'simulator'"),
+    (dict(pipelined=1), "pipelined must be a bool, got 1"),
+    (dict(pipelined=True, updates_per_chunk=1), r"updates_per_chunk >= 2 \(got 1\)"),
+    (dict(pipelined=True, actor_device=0), r"no actor_device \(got 0;"),
+    (dict(pipelined=True, backend="sc2"), r"needs backend 'simulator' \(got 'sc2'\)"),
     (dict(bot=("terran", "easy")), "bot plays the other player of a ladder map"),
     (dict(map_name="Acropolis", bot=("zerg", "easy")), "the simulator's computer is a Terran"),
     (dict(map_name="Acropolis", bot=("terran", "cheat_insane")), "the simulator's computer"),
@@ -173,6 +177,21 @@ def test_train_resumes_exactly_where_it_stopped(tmp_path):
     lines = []
     trainer.train(config, str(tmp_path / "c"), log=lines.append, progress=False)
     assert f"Starting from the parameters of {source}" in lines
+
+
+@pytest.mark.slow
+def test_a_pipelined_run_resumes_exactly_where_it_stopped(tmp_path):
+    config = dataclasses.replace(TINY, pipelined=True, off_policy_correction="vtrace")
+    straight = trainer.train(config, str(tmp_path / "a"), log=lambda _: None, progress=False)
+    interrupted = str(tmp_path / "b")
+    trainer.train(config, interrupted, log=lambda _: None, progress=False,
+                  stop_after_updates=2)
+    resumed = trainer.train(config, interrupted, log=lambda _: None, progress=False)
+    assert int(resumed.state.learner.update) == config.total_updates
+    jax.tree.map(np.testing.assert_array_equal, straight.state.learner.params,
+                 resumed.state.learner.params)
+    a, b = (read_csv(os.path.join(d, "metrics.csv")) for d in (tmp_path / "a", interrupted))
+    np.testing.assert_array_equal(a["loss"], b["loss"])
 
 
 def test_trained_run_can_be_evaluated(tmp_path):
