@@ -47,6 +47,7 @@ def test_outputs_read_the_unit_rows():
     assert np.isfinite(np.asarray(out.world.logits)).all()
 
 
+@pytest.mark.slow  # 6 s (the raw environment's step); test_raw_agent plays it too.
 def test_sampled_actions_play_the_raw_environment():
     sim, network, params, states, obs = _setup()
     step = jax.jit(jax.vmap(sim.step))

@@ -73,7 +73,10 @@ KEPT = {
 }
 
 
-@pytest.mark.parametrize("map_name", sorted(KEPT))
+# FindAndDefeatZerglings in the slow tier (8 s; its step is the slow tier's already).
+@pytest.mark.parametrize("map_name", [pytest.param(m, marks=pytest.mark.slow)
+                                      if m == "FindAndDefeatZerglings" else m
+                                      for m in sorted(KEPT)])
 def test_only_layers_that_cannot_change_are_kept(map_name):
     sim = small_sim(map_name)
     garbage = -7
