@@ -11,11 +11,12 @@ The shares are environment = env / step, acting = (unroll - env) / step and lear
 whole step). With --write the table replaces the "Training throughput on CPU" (or
 "on GPU") section of docs/benchmarks.md.
 
-With --pipelined it also times one program that acts for the next batch and learns from
-the last one, which do not depend on each other (the actor a policy one update behind,
-as in IMPALA): "pipelined" is the step's time over that program's. Near 1 the hardware
-runs acting and learning one after the other; at most 1 / max(acting + environment,
-learning) if it runs them at once.
+With --pipelined it also times training's pipelined chunk (`train --pipelined`: each
+program acts for the next batch and learns from the last, which do not depend on each
+other; the actor a policy one update behind, as in IMPALA) against the plain chunk, both
+of `PIPELINED_UPDATES` updates: "pipelined" is the plain chunk's time over the pipelined
+one's. Near 1 the hardware runs acting and learning one after the other; at most
+1 / max(acting + environment, learning) if it runs them at once.
 """
 
 from __future__ import annotations
@@ -26,17 +27,20 @@ import sys
 import time
 
 import jax
+import jax.numpy as jnp
 from absl import app, flags
 
 from sc2jax.checks import check_positive_int, positive_ints
 from sc2jax.environment.agents import random_action
 from sc2jax.experiments.reporting.markdown import write_section
 from sc2jax.experiments.training.actor import make_unroll
-from sc2jax.experiments.training.compiled_loop import make_train_step
+from sc2jax.experiments.training.compiled_loop import make_train_chunk, make_train_step
 from sc2jax.experiments.training.config import TrainConfig
 from sc2jax.experiments.training.trainer import build
 
 SECTION = "## Training throughput on {platform}"
+PIPELINED_UPDATES = 4
+"""Updates per chunk in the --pipelined comparison (its first acts and last learns alone)."""
 
 
 def _time(fn, *args, repeats: int) -> float:
@@ -46,6 +50,17 @@ def _time(fn, *args, repeats: int) -> float:
     for _ in range(repeats):
         out = fn(*args)
     jax.block_until_ready(out)
+    return (time.perf_counter() - start) / repeats
+
+
+def _time_chunk(chunk, state, repeats: int) -> float:
+    """Seconds per call of a training chunk after one compiling call (the chunk donates
+    its input, so each call takes the state the last one returned)."""
+    state = jax.block_until_ready(chunk(jax.tree.map(jnp.copy, state))[0])
+    start = time.perf_counter()
+    for _ in range(repeats):
+        state = chunk(state)[0]
+    jax.block_until_ready(state)
     return (time.perf_counter() - start) / repeats
 
 
@@ -80,19 +95,16 @@ def measure(config: TrainConfig, repeats: int, pipelined: bool = False) -> dict:
         "step": _time(step, state, repeats=repeats),
     }
     if pipelined:
-        def act_and_learn(learner, actor, last_trajectory):
-            actor, next_trajectory, _ = unroll.unroll(learner.params, actor)
-            return agent.learner.update(learner, last_trajectory), actor, next_trajectory
-
-        times["pipelined"] = _time(jax.jit(act_and_learn), state.learner, state.actor,
-                                   trajectory, repeats=repeats)
+        chunks = {p: make_train_chunk(unroll, agent.learner, PIPELINED_UPDATES, pipelined=p)
+                  for p in (False, True)}
+        plain, overlapped = (_time_chunk(chunks[p], state, repeats) for p in (False, True))
     steps = k * config.num_envs
     return {"agent": config.agent, "size": config.screen_size,
             "steps_per_s": steps / times["step"],
             "env": times["env"] / times["step"],
             "acting": max(times["unroll"] - times["env"], 0.0) / times["step"],
             "learning": times["update"] / times["step"],
-            **({"pipelined": times["step"] / times["pipelined"]} if pipelined else {})}
+            **({"pipelined": plain / overlapped} if pipelined else {})}
 
 
 def table(rows: list[dict], header: str) -> str:
