@@ -85,9 +85,10 @@ class TrainConfig:
         overlaps learning, the policy lags by up to 2 updates, which V-trace corrects;
         the environments are not checkpointed).
       pipelined: act for the next batch while learning from the last, in one compiled
-        program (`compiled_loop`): the policy acts one update behind, as with
-        actor_device, but the run stays one program and resumes exactly (simulator, no
-        actor_device, updates_per_chunk >= 2).
+        program per update (`compiled_loop`): the policy acts up to one update behind
+        (use V-trace or PPO), and unlike actor_device the run keeps its environments in
+        its checkpoints and resumes exactly (simulator, no actor_device,
+        updates_per_chunk >= 2).
       seed: the run's seed (parameters, environments and actions).
       updates_per_chunk: updates between two host calls (logging).
       checkpoint_interval_s: seconds between checkpoints (one is always written at the end).
