@@ -12,6 +12,8 @@ from sc2jax.environment.engine.ladder import MapLayout, layouts, load_layout
 from sc2jax.replay_sl.layouts import map_layout, merge, replay_layout
 
 REPLAYS = pathlib.Path(__file__).parents[3] / "shared" / "replays"
+needs_replays = pytest.mark.skipif(not REPLAYS.is_dir(),
+                                   reason=f"the replays are not at {REPLAYS}")
 
 
 def _files(name: str) -> list[str]:
@@ -19,6 +21,7 @@ def _files(name: str) -> list[str]:
     return [str(REPLAYS / r["file"]) for r in manifest["replays"] if r["map"] == name]
 
 
+@needs_replays
 def test_a_replay_gives_the_packaged_layout():
     packaged = load_layout("Disco Bloodbath LE")
     for path in _files("Disco Bloodbath LE")[:2]:
@@ -50,6 +53,7 @@ def test_every_packaged_map_is_point_symmetric_with_a_base_at_each_start(name):
         assert (np.linalg.norm(geysers - start, axis=1) < 10).sum() == 2
 
 
+@needs_replays
 @pytest.mark.slow
 def test_a_revised_map_keeps_its_most_common_revision():
     files = _files("Winter's Gate LE")

@@ -184,6 +184,7 @@ def test_play_refuses_bad_flags_before_compiling():
 
 
 @pytest.mark.slow
+@pytest.mark.skipif(not REPLAYS.is_dir(), reason=f"the replays are not at {REPLAYS}")
 def test_a_human_replay_is_shown_as_its_player_saw_it():
     from sc2jax.experiments.viewer.replays import ReplayPlayback
     from sc2jax.replay_sl import label_players, open_replay, read_metadata
