@@ -65,6 +65,7 @@ def test_a_mule_called_down_on_a_field_mines_it_and_dies_after_64_seconds():
     assert int(state.minerals) - bank == 7 * 25
 
 
+@pytest.mark.slow  # 6 s of a melee game's compile.
 def test_a_mule_needs_50_energy_and_lands_idle_off_a_field():
     state, step, ts, cc = orbital(49.0)
     target = (33.0, 21.0)

@@ -86,6 +86,7 @@ def select_scv(step, state, map_name=CMAG):
                map_name)
 
 
+@pytest.mark.slow  # 11 s; the fast tier keeps the queue and payment errors below.
 def test_train_scv_pays_queues_and_appears_after_its_build_time():
     state, step = start()
     state, ts = select_cc(step, state)
