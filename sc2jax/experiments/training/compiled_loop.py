@@ -57,11 +57,16 @@ def make_train_step(unroll: Unroll, learner: Learner):
 
     def train_step(state: TrainState):
         actor, trajectory, episodes = unroll.unroll(state.learner.params, state.actor)
-        learner_state, metrics = learner.update(state.learner, trajectory)
-        metrics = jax.tree.map(lambda m: jnp.asarray(m, jnp.float32), metrics)
+        learner_state, metrics = _learn(learner, state.learner, trajectory)
         return TrainState(learner_state, actor), metrics, episodes
 
     return train_step
+
+
+def _learn(learner: Learner, learner_state: LearnerState, trajectory):
+    """One update, its metrics as float32 scalars."""
+    learner_state, metrics = learner.update(learner_state, trajectory)
+    return learner_state, jax.tree.map(lambda m: jnp.asarray(m, jnp.float32), metrics)
 
 
 def make_train_chunk(unroll: Unroll, learner: Learner, updates_per_chunk: int, *,
@@ -132,9 +137,7 @@ def _pipelined_chunk(unroll: Unroll, learner: Learner, updates_per_chunk: int,
         raise ValueError(f"a pipelined chunk acts for the next update while it learns, so "
                          f"it needs updates_per_chunk >= 2, got {updates_per_chunk!r}")
 
-    def learn(learner_state: LearnerState, trajectory):
-        learner_state, metrics = learner.update(learner_state, trajectory)
-        return learner_state, jax.tree.map(lambda m: jnp.asarray(m, jnp.float32), metrics)
+    learn = functools.partial(_learn, learner)
 
     def act_and_learn(learner_state: LearnerState, actor: ActorState, trajectory):
         # Acting reads the parameters before this update: the two are independent.
