@@ -112,6 +112,15 @@ def _visible_grid(eyes, rows: np.ndarray, cols: np.ndarray,
       rows: int64 [T, I] cells' y.
       cols: int64 [T, J] cells' x, non-decreasing along j.
     """
+    # Rows or columns that repeat (the screen has ~2.7 pixels a cell) are drawn once.
+    low_row, low_col = rows.min(1, keepdims=True), cols[:, :1]
+    cells_high = 1 + (rows.max(1, keepdims=True) - low_row).max(initial=0)
+    cells_wide = 1 + (cols[:, -1:] - low_col).max(initial=0)
+    if cells_high * cells_wide < rows.shape[1] * cols.shape[1]:
+        grid = _visible_grid(eyes, low_row + np.arange(cells_high), low_col + np.arange(
+            cells_wide), map_size)
+        grid = np.take_along_axis(grid, (rows - low_row)[:, :, None], axis=1)
+        return np.take_along_axis(grid, (cols - low_col)[:, None, :], axis=2)
     t, x, y = eyes
     steps, num_rows = rows.shape
     num_cols = cols.shape[1]
@@ -203,6 +212,40 @@ class _Stack(NamedTuple):
         return {key: self.low, key + narrow.HIGH_SUFFIX: self.high}
 
 
+def _disc_pixels(pixels: np.ndarray, r: float, size: int) -> tuple[np.ndarray, np.ndarray]:
+    """The pixels of a size x size layer that discs of radius r (at least 1/2) around
+    `pixels` [N, 2] (x, y) cover: those whose centres lie within a disc, and always the
+    pixel holding its centre.
+
+    Returns:
+      (disc int64 [P], pixel int64 [P]: y * size + x), ordered by disc.
+    """
+    centre = np.floor(pixels).astype(np.int64)
+    on = np.all((centre >= 0) & (centre < size), axis=1)
+    disc, pixel = np.flatnonzero(on), (centre[on, 1] * size + centre[on, 0])
+    # Another pixel's centre lies 1/2 + f or 3/2 - f away along an axis (f: the point's
+    # offset in its pixel), so a disc covers none unless one of those is within r (with
+    # a margin: the exact test below decides).
+    f = pixels - centre
+    wide = np.flatnonzero(np.minimum(0.5 + f, 1.5 - f).min(axis=1) <= r + 1e-3)
+    if not len(wide):
+        return disc, pixel
+    # A pixel o columns from the centre's has its centre more than |o| - 1/2 away: the
+    # disc reaches |o| <= r + 1/2 at most.
+    reach = int(np.floor(r + 0.5))
+    span = np.arange(-reach, reach + 1)
+    ox, oy = (a.ravel() for a in np.meshgrid(span, span))
+    x = centre[wide, 0:1] + ox[None, :]  # [W, K]
+    y = centre[wide, 1:2] + oy[None, :]
+    inside = (x + 0.5 - pixels[wide, 0:1]) ** 2 + (y + 0.5 - pixels[wide, 1:2]) ** 2 <= r * r
+    keep = inside & ((ox != 0) | (oy != 0))[None, :] & (x >= 0) & (x < size) & (y >= 0) & (
+        y < size)
+    disc = np.concatenate([disc, np.broadcast_to(wide[:, None], keep.shape)[keep]])
+    pixel = np.concatenate([pixel, (y * size + x)[keep]])
+    order = np.argsort(disc, kind="stable")
+    return disc[order], pixel[order]
+
+
 def _paint(stack: _Stack, t: np.ndarray, pixels: np.ndarray, radius: float,
            values: dict[str, np.ndarray], densities: bool) -> None:
     """Draws discs of `radius` pixels around `pixels` [N, 2] (x, y) of steps `t` [N] into
@@ -212,21 +255,11 @@ def _paint(stack: _Stack, t: np.ndarray, pixels: np.ndarray, radius: float,
     steps, _, size, _ = stack.low.shape
     r = max(radius, 0.5)
     near = np.all((pixels > -r - 1) & (pixels < size + r + 1), axis=1)  # Off-layer: skip.
-    t, pixels = t[near], pixels[near]
-    values = {name: v[near] for name, v in values.items()}
-    span = np.arange(-int(np.ceil(r)), int(np.ceil(r)) + 1)
-    ox, oy = (a.ravel() for a in np.meshgrid(span, span))
-    centre = np.floor(pixels).astype(np.int64)
-    x = centre[:, 0:1] + ox[None, :]  # [N, K]
-    y = centre[:, 1:2] + oy[None, :]
-    inside = (x + 0.5 - pixels[:, 0:1]) ** 2 + (y + 0.5 - pixels[:, 1:2]) ** 2 <= r * r
-    keep = (inside | ((ox == 0) & (oy == 0))[None, :]) & (x >= 0) & (x < size) & (y >= 0) & (
-        y < size)
-    unit = np.broadcast_to(np.arange(len(pixels))[:, None], keep.shape)[keep]
-    step = np.broadcast_to(t[:, None], keep.shape)[keep]
-    pixel = (y * size + x)[keep]  # In unit order: numpy assigns repeated indices in order.
+    unit, pixel = _disc_pixels(pixels[near], r, size)
+    step = t[near][unit]
+    # In unit order: numpy assigns repeated indices in order.
     for name, v in values.items():
-        stack.put(name, step, pixel, v[unit])
+        stack.put(name, step, pixel, v[near][unit])
     if densities:
         count = np.bincount(step * size * size + pixel,
                             minlength=steps * size * size).reshape(steps, size, size)

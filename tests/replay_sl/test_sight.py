@@ -51,3 +51,22 @@ def test_sight_is_its_definition(seed):
     want = [_by_definition(points, mine, t[n], int(np.floor(xs[n])), int(np.floor(ys[n])))
             for n in range(20)]
     np.testing.assert_array_equal(got, np.asarray(want, bool))
+
+
+@settings(max_examples=20, deadline=None)
+@given(st.integers(0, 2 ** 31 - 1))
+def test_sight_of_repeated_rows_and_columns_is_its_definition(seed):
+    """A screen's pixels sample each cell two or three times (the repeated cells are
+    drawn once and copied)."""
+    rng = np.random.default_rng(seed)
+    steps, units = 3, 5
+    points = rng.uniform(-4, 27, (steps, units, 2)).astype(np.float32)
+    mine = rng.random((steps, units)) < 0.5
+    eyes = _eye_cells(points, mine, MAP)
+    pixels = (np.arange(16) + 0.5) / 2.7  # 16 pixels over 6 cells.
+    cols = np.floor(rng.uniform(-8, 25, (steps, 1)) + pixels).astype(np.int64)
+    rows = np.floor(rng.uniform(-8, 20, (steps, 1)) - pixels).astype(np.int64)  # y falls.
+    grid = _visible_grid(eyes, rows, cols, MAP)
+    want = [[[_by_definition(points, mine, t, cols[t, j], rows[t, i]) for j in range(16)]
+             for i in range(16)] for t in range(steps)]
+    np.testing.assert_array_equal(grid, np.asarray(want, bool))
