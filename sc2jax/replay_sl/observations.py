@@ -256,10 +256,11 @@ def _paint(stack: _Stack, t: np.ndarray, pixels: np.ndarray, radius: float,
     r = max(radius, 0.5)
     near = np.all((pixels > -r - 1) & (pixels < size + r + 1), axis=1)  # Off-layer: skip.
     unit, pixel = _disc_pixels(pixels[near], r, size)
-    step = t[near][unit]
+    unit = np.flatnonzero(near)[unit]
+    step = t[unit]
     # In unit order: numpy assigns repeated indices in order.
     for name, v in values.items():
-        stack.put(name, step, pixel, v[near][unit])
+        stack.put(name, step, pixel, v[unit])
     if densities:
         count = np.bincount(step * size * size + pixel,
                             minlength=steps * size * size).reshape(steps, size, size)
