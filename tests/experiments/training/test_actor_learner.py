@@ -121,8 +121,8 @@ def test_a_pipelined_chunk_acts_one_update_behind(agent):
         jax.tree.map(np.testing.assert_array_equal, episodes,
                      jax.tree.map(lambda *e: np.stack(e), episodes1, episodes2, episodes3))
         np.testing.assert_array_equal(out.actor.key, actor.key)
-    # (The plain chunk would act batch 2 with the parameters after one update, as by hand
-    # it is not: the reference tells the two apart.)
+    # The plain chunk acts batch 2 with the parameters after one update, the hand-made
+    # reference above with the first ones: matching the reference tells the two apart.
     with pytest.raises(ValueError, match="needs updates_per_chunk >= 2, got 1"):
         make_train_chunk(unroll, agent.learner, 1, pipelined=True)
 
