@@ -121,10 +121,11 @@ def batch_keys(recording: Recording, batch: int) -> tuple[jax.Array, jax.Array]:
     return jax.random.split(reset_key, recording.num_envs), act_key
 
 
-def _play_batch(sim: Simulator, play, carry: Any, keys: tuple[jax.Array, jax.Array],
+def _play_batch(reset, play, carry: Any, keys: tuple[jax.Array, jax.Array],
                 partial: list[pathlib.Path], fields: dict) -> tuple[np.ndarray, list[int]]:
-    """Plays one episode in each environment of `keys` (`batch_keys`) with `play`
-    (`_chunk_fn`), streaming each episode's records (value 0) into its file of `partial`.
+    """Plays one episode in each environment of `keys` (`batch_keys`), reset by `reset`
+    (the jitted `vmap(sim.reset)`), with `play` (`_chunk_fn`), streaming each episode's
+    records (value 0) into its file of `partial`.
 
     Returns:
       (float64[num_envs] the episodes' scores, their lengths in agent steps).
@@ -133,7 +134,7 @@ def _play_batch(sim: Simulator, play, carry: Any, keys: tuple[jax.Array, jax.Arr
 
     reset_keys, key = keys
     num_envs = len(partial)
-    state, ts = jax.vmap(sim.reset)(reset_keys)
+    state, ts = reset(reset_keys)
     loop = (state, ts, carry, jnp.zeros(num_envs, bool))
     writers = [ArrayRecordWriter(str(p), WRITER_OPTIONS) for p in partial]
     scores, lengths = np.zeros(num_envs), [0] * num_envs
@@ -209,6 +210,7 @@ def record_demonstrations(sim: Simulator, act: Act, carry: Any, output: str | pa
                              f"folder, or with those settings")
         summary["replays"] = before["replays"]
     fields, play = schema(settings), _chunk_fn(sim, act)
+    reset = jax.jit(jax.vmap(sim.reset))  # Eagerly, each operation would compile alone.
     num_envs = recording.num_envs
     batches = -(-episodes // num_envs)
     for batch in range(batches):
@@ -220,7 +222,7 @@ def record_demonstrations(sim: Simulator, act: Act, carry: Any, output: str | pa
         partial = [output / ".partial" / f"{episode_name(recording, e)}.array_record"
                    for e in numbers]
         partial[0].parent.mkdir(parents=True, exist_ok=True)
-        scores, lengths = _play_batch(sim, play, carry, batch_keys(recording, batch),
+        scores, lengths = _play_batch(reset, play, carry, batch_keys(recording, batch),
                                       partial, fields)
         median = float(np.median(scores))
         done = {r["episode"] for r in summary["replays"]}
