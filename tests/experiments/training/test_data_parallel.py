@@ -24,7 +24,7 @@ from sc2jax.experiments.training.trainer import load_run, run_config, train
 SMALL = ["--map=MoveToBeacon", "--network=fullyconv", "--screen_size=16",
          "--minimap_size=16", "--screen_features=player_relative,selected",
          "--minimap_features=player_relative", "--functions=no_op,select_army,Move_screen",
-         "--num_envs=4", "--unroll_length=8", "--seed=3", "--compilation_cache="]
+         "--num_envs=4", "--unroll_length=8", "--seed=3"]
 TRAIN = [*SMALL, "--learning_rate=5e-3", "--updates_per_chunk=2", "--total_steps=512",
          "--checkpoint_interval_s=1e-6", "--eval_episodes=4"]  # 16 updates, 8 checkpoints.
 
